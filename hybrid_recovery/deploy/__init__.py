@@ -1,0 +1,1 @@
+"""Hardware deployment: the Unitree low-level protocol, transport and runners."""

@@ -1,0 +1,221 @@
+"""Typed configuration of the recovery environment (SPEC §2–§6), units in the docstrings."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+from typing import Any
+
+
+@dataclass
+class RewardConfig:
+    """Weights w, shaping coefficients α, bandwidths σ of SPEC §4 (rates per second).
+
+    Every term value is multiplied by its weight and by the control period Δt, so a
+    weight is a reward per second of the condition holding. A weight of 0 disables a
+    term. Choices (the paper gives none):
+
+    * Group I is the main drive: w_height 5 with σ_h 0.5 m leaves a usable gradient from
+      the floor (h_c ≈ 0.2 m gives 0.08) to upright; r_rise pays α_r = 4 per m/s of
+      rising; r_fall costs α_f = 4 per (m/s)²; both are off inside the dead band δ_h =
+      0.08 m around h*, where r_stab pays α_s = 2 and costs α_v = 2 per m/s.
+    * Group II: σ_c = 0.10 m and σ_ξ = 0.15 m are about half a foot length, so the reward
+      falls off over the distance a foot or an ankle strategy can correct.
+      α_ℓ = 2e-7 / N², α_L = 2e-5 / (N·m)²: free fall (|F_net| = m g ≈ 660 N) costs
+      ≈ 0.09 per second, but a hard landing (Δp ≈ 130 kg·m/s within one 20 ms step,
+      |F_net| ≈ 6.6 kN) ≈ 9 per second: compliant falls pay.
+    * Group III: small regularisers that do not mask Groups I–II.
+    """
+
+    height_target: float | None = None
+    """h*: target upright CoM height [m]; None = the CoM height of the default pose."""
+    w_height: float = 5.0
+    sigma_height: float = 0.5
+    """σ_h [m]."""
+    w_rise: float = 1.0
+    alpha_rise: float = 4.0
+    """α_r [1/(m/s)]."""
+    w_fall: float = 1.0
+    alpha_fall: float = 4.0
+    """α_f [1/(m/s)²]."""
+    w_stab: float = 1.0
+    alpha_stab: float = 2.0
+    alpha_stab_vel: float = 2.0
+    """α_v [1/(m/s)]."""
+    height_band: float = 0.08
+    """δ_h: dead band around h* [m]: r_rise and r_fall act outside it, r_stab inside."""
+    w_com: float = 1.0
+    sigma_com: float = 0.10
+    """σ_c [m]."""
+    w_cp: float = 2.0
+    sigma_cp: float = 0.15
+    """σ_ξ [m]."""
+    w_mom: float = 1.0
+    alpha_lin: float = 2e-7
+    """α_ℓ [1/N²]."""
+    alpha_ang: float = 2e-5
+    """α_L [1/(N·m)²]."""
+    w_torque: float = 2.0e-6
+    """Weight of −Σ τ² [1/(N·m)²]."""
+    w_joint_limit: float = 2.0
+    """Weight of −Σ (violation beyond the soft limits) [1/rad]."""
+    w_action_rate: float = 0.05
+    """Weight of −Σ (a_t − a_{t−1})²."""
+    w_orient: float = 1.0
+    """Weight of −‖g_xy‖², the torso's projected gravity off vertical."""
+    w_contact: float = 0.25
+    """Weight of the hand/elbow support reward, paid only while h_c < contact_gate_height."""
+    contact_gate_height: float = 0.6
+    """CoM height below which hand and elbow support is rewarded [m]."""
+    w_alive: float = 1.0
+    w_termination: float = -100.0
+    """Early-termination penalty (timeouts excluded), × Δt like every term."""
+    use_capture_point: bool = True
+    """Ablation switch: False zeroes r_CP (and r_CoM) — the capture-point rewards."""
+
+
+@dataclass
+class NoiseConfig:
+    """Additive uniform actor-observation noise half-widths (SPEC §2)."""
+
+    ang_vel: float = 0.5
+    """[rad/s]."""
+    gravity: float = 0.15
+    joint_pos: float = 0.1
+    """[rad]."""
+    joint_vel: float = 0.5
+    """[rad/s]."""
+
+
+@dataclass
+class DomainRandConfig:
+    """Per-episode domain randomisation ranges (SPEC §6); ``scale`` ∈ [0, 1] widens them
+    from nominal (0) to the full range (1) — the curriculum drives it."""
+
+    kp_scale: tuple[float, float] = (0.75, 1.25)
+    kd_scale: tuple[float, float] = (0.75, 1.25)
+    joint_friction: tuple[float, float] = (0.5, 4.0)
+    """Joint Coulomb friction (MuJoCo frictionloss) [N·m]."""
+    armature_scale: tuple[float, float] = (0.5, 1.6)
+    static_friction: tuple[float, float] = (0.3, 1.6)
+    dynamic_friction: tuple[float, float] = (0.3, 1.2)
+    """MuJoCo has one Coulomb coefficient: μ = min(μ_s, μ_d) is used."""
+    restitution: tuple[float, float] = (0.0, 0.2)
+    """e, mapped to the contact damping ratio ζ = −ln e / √(π² + ln² e) (1 at e = 0)."""
+    mass_scale: tuple[float, float] = (0.9, 1.1)
+    inertia_scale: tuple[float, float] = (0.9, 1.1)
+    init_base_pos: float = 0.05
+    """Initial base position noise ±[m] (horizontal; vertical is re-seated on the ground)."""
+    init_base_rot: float = 0.2
+    """Initial base rotation noise ±[rad] about each axis."""
+    init_joint_pos: float = 0.1
+    """Initial joint offsets ±[rad]."""
+
+
+@dataclass
+class PushConfig:
+    """Torso pushes (SPEC §6): horizontal force at the torso CoM."""
+
+    force: tuple[float, float] = (50.0, 300.0)
+    """|F| [N]."""
+    duration: tuple[float, float] = (0.1, 0.2)
+    """[s]."""
+    interval: tuple[float, float] = (3.0, 8.0)
+    """Time between pushes [s]."""
+    fall_force: tuple[float, float] = (350.0, 600.0)
+    """Large fall-inducing push, once the robot has been upright for upright_time [N]."""
+    fall_probability: float = 0.5
+    """Chance that a push, while upright for ≥ upright_time, is a fall-inducing one."""
+    upright_time: float = 2.0
+    """[s]."""
+
+
+@dataclass
+class CurriculumConfig:
+    """Three stages (SPEC §5), advanced by the success rate of finished episodes.
+
+    Stage 1 (exploration): torque limits × torque_scale_explore, no pushes, no domain
+    randomisation, start poses ``stage1_poses``. Stage 2: ``difficulty`` rises from 0 to 1
+    in steps of ``step`` each time the success rate ≥ ``advance_success``; it scales push
+    probability, DR ranges and the share of hard poses. Stage 3: torque scale anneals
+    from torque_scale_explore to 1 and the position-limit factor to 0.9 in the same
+    steps. ``enabled=False`` starts at the end of stage 3 (the ablation).
+    """
+
+    enabled: bool = True
+    torque_scale_explore: float = 10.0
+    position_limit_final: float = 0.9
+    advance_success: float = 0.6
+    """Success rate of the last ``window`` episodes needed to advance one step."""
+    window: int = 512
+    step: float = 0.1
+    stage1_poses: tuple[str, ...] = ("standing", "squatting", "kneeling")
+
+
+@dataclass
+class EnvConfig:
+    """The recovery environment (SPEC §2–§6)."""
+
+    num_envs: int = 1024
+    num_threads: int = 0
+    """Physics threads (0 = all cores)."""
+    seed: int = 0
+    model_path: str | None = None
+    """MJCF of the robot; None = the project's own H1-2."""
+    physics_dt: float = 0.005
+    """[s]."""
+    decimation: int = 4
+    """Physics substeps per control step (50 Hz control at 0.005 s)."""
+    episode_length_s: float = 20.0
+    action_scale: float = 0.3
+    delay_range: tuple[float, float] = (0.010, 0.040)
+    """Per-episode actuation delay [s], a multiple of physics_dt, held within the episode."""
+    pose_weights: dict[str, float] = field(default_factory=lambda: {
+        "standing": 1.0, "squatting": 1.0, "kneeling": 1.0, "sitting": 1.0,
+        "supine": 1.0, "prone": 0.5})
+    """Sampling weights of the initial poses."""
+    privileged_critic: bool = True
+    """Ablation switch: False gives the critic the actor's observation only."""
+    torso_force_limit: float = 2000.0
+    """Torso–ground contact force above which the episode ends [N]."""
+    stuck_time: float = 2.0
+    """Stuck-low: no CoM rise of stuck_rise for this long, while not upright, ends it [s]."""
+    stuck_rise: float = 0.02
+    """[m]."""
+    upright_height: float = 0.85
+    """CoM height of the success criterion [m]."""
+    rewards: RewardConfig = field(default_factory=RewardConfig)
+    noise: NoiseConfig = field(default_factory=NoiseConfig)
+    domain_rand: DomainRandConfig = field(default_factory=DomainRandConfig)
+    pushes: PushConfig = field(default_factory=PushConfig)
+    curriculum: CurriculumConfig = field(default_factory=CurriculumConfig)
+
+
+def default_config() -> EnvConfig:
+    """The paper's environment (SPEC §2–§6) with this project's documented choices."""
+    return EnvConfig()
+
+
+def apply_overrides(cfg: Any, overrides: dict[str, Any]) -> Any:
+    """Applies dotted overrides, e.g. ``{"rewards.w_cp": 0.0, "num_envs": 64}``.
+
+    Raises:
+        KeyError: naming the unknown key and the valid ones at that level.
+    """
+    for dotted, value in overrides.items():
+        target = cfg
+        *path, last = dotted.split(".")
+        for part in path:
+            target = _field(target, part, dotted)
+        current = _field(target, last, dotted)
+        if isinstance(current, tuple) and isinstance(value, list):
+            value = tuple(value)
+        setattr(target, last, value)
+    return cfg
+
+
+def _field(obj: Any, name: str, dotted: str) -> Any:
+    names = [f.name for f in dataclasses.fields(obj)] if dataclasses.is_dataclass(obj) else []
+    if name not in names:
+        raise KeyError(f"unknown config key '{dotted}': '{name}' is not one of {names}")
+    return getattr(obj, name)

@@ -1,0 +1,143 @@
+"""Initial states: standing, squatting, kneeling, sitting, supine and prone, settled.
+
+Each pose is a joint configuration and a base orientation. A pool of physically valid
+states per pose is made once per environment by dropping the robot from just above the
+ground and letting it settle for ``settle_time`` under PD holding the pose, with the
+paper's joint noise applied before settling. Episodes then start from a pool entry with
+the paper's initialisation noise, re-seated so that no geom is below the ground.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+from mujoco import batch as mjbatch
+
+from hybrid_recovery.robot import constants
+
+POSES = ("standing", "squatting", "kneeling", "sitting", "supine", "prone")
+
+
+@dataclass(frozen=True)
+class Pose:
+    """A named start pose: joint targets q (27,) [rad], base pitch [rad], and how long it
+    settles [s] (upright poses only until their contacts are established)."""
+
+    joints: np.ndarray
+    pitch: float
+    settle_time: float = 1.5
+
+
+def _joints(hip_pitch: float, knee: float, ankle: float, shoulder: float = 0.2,
+            elbow: float = 0.6, torso: float = 0.0, shoulder_roll: float = 0.2) -> np.ndarray:
+    leg = [0.0, hip_pitch, 0.0, knee, ankle, 0.0]
+    left_arm = [shoulder, shoulder_roll, 0.0, elbow, 0.0, 0.0, 0.0]
+    right_arm = [shoulder, -shoulder_roll, 0.0, elbow, 0.0, 0.0, 0.0]
+    return np.array(leg + leg + [torso] + left_arm + right_arm)
+
+
+POSE_LIBRARY: dict[str, Pose] = {
+    "standing": Pose(constants.DEFAULT_JOINT_POS.copy(), 0.0, settle_time=0.2),
+    # deep squat: thighs near horizontal, heels down, arms forward for balance
+    "squatting": Pose(_joints(-1.5, 2.1, -0.6, shoulder=-0.8, elbow=0.3), 0.35, settle_time=0.3),
+    # kneeling upright on both knees, shins on the ground, feet extended
+    "kneeling": Pose(_joints(-0.1, 2.1, 0.4), 0.0),
+    # sitting on the pelvis, legs forward, hands behind on the ground
+    "sitting": Pose(_joints(-1.5, 0.3, 0.0, shoulder=0.6, elbow=0.2), 0.0),
+    # lying on the back / the front, limbs at rest
+    "supine": Pose(_joints(-0.1, 0.2, 0.0, shoulder=0.0, elbow=0.3), -np.pi / 2),
+    "prone": Pose(_joints(-0.1, 0.2, 0.0, shoulder=0.0, elbow=0.3), np.pi / 2),
+}
+
+
+def quat_from_euler(roll: np.ndarray, pitch: np.ndarray, yaw: np.ndarray) -> np.ndarray:
+    """Quaternions (w, x, y, z) of R = Rz(yaw) Ry(pitch) Rx(roll), shape (..., 4)."""
+    cr, sr = np.cos(roll / 2), np.sin(roll / 2)
+    cp, sp = np.cos(pitch / 2), np.sin(pitch / 2)
+    cy, sy = np.cos(yaw / 2), np.sin(yaw / 2)
+    return np.stack([cr * cp * cy + sr * sp * sy, sr * cp * cy - cr * sp * sy,
+                     cr * sp * cy + sr * cp * sy, cr * cp * sy - sr * sp * cy], -1)
+
+
+def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Hamilton product a ⊗ b of (w, x, y, z) quaternions, shape (..., 4)."""
+    aw, ax, ay, az = np.moveaxis(a, -1, 0)
+    bw, bx, by, bz = np.moveaxis(b, -1, 0)
+    return np.stack([aw * bw - ax * bx - ay * by - az * bz, aw * bx + ax * bw + ay * bz - az * by,
+                     aw * by - ax * bz + ay * bw + az * bx, aw * bz + ax * by - ay * bx + az * bw],
+                    -1)
+
+
+def lowest_point(model: mujoco.MjModel, geom_xpos: np.ndarray, geom_xmat: np.ndarray,
+                 geoms: np.ndarray) -> np.ndarray:
+    """Lowest z over the given collision geoms (spheres, capsules, boxes).
+
+    Args:
+        model: the model (sizes and types of the geoms).
+        geom_xpos: (N, ngeom, 3); geom_xmat: (N, ngeom, 9).
+        geoms: ids of the geoms to consider, (G,).
+
+    Returns:
+        min z, shape (N,) [m].
+    """
+    pos = geom_xpos[:, geoms]
+    mat = geom_xmat[:, geoms].reshape(len(pos), len(geoms), 3, 3)
+    size = model.geom_size[geoms]
+    gtype = model.geom_type[geoms]
+    z_axis = mat[:, :, 2, :]  # the geom's axes' world-z components, (N, G, 3)
+    box = np.sum(np.abs(z_axis) * size, -1)
+    capsule = np.abs(z_axis[..., 2]) * size[:, 1] + size[:, 0]
+    sphere = np.broadcast_to(size[:, 0], box.shape)
+    extent = np.where(gtype == mujoco.mjtGeom.mjGEOM_BOX, box,
+                      np.where(gtype == mujoco.mjtGeom.mjGEOM_CAPSULE, capsule, sphere))
+    return np.min(pos[..., 2] - extent, axis=1)
+
+
+def robot_geoms(model: mujoco.MjModel) -> np.ndarray:
+    """Ids of the robot's collision geoms (those that collide with the floor)."""
+    return np.flatnonzero((model.geom_contype > 0) & (model.geom_bodyid > 0))
+
+
+def settle_pool(model: mujoco.MjModel, per_pose: int, rng: np.random.Generator,
+                joint_noise: float = 0.1,
+                nthread: int = 0) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Settled (qpos, qvel) for every pose, in the order of POSES: ``{pose: ((per_pose, nq), (per_pose, nv))}``."""
+    names = list(POSE_LIBRARY)
+    n = per_pose * len(names)
+    sims = mjbatch.Batch(model, n, nthread, persistent=True)
+    qpos, qvel, ctrl = sims.bind("qpos"), sims.bind("qvel"), sims.bind("ctrl")
+    qadr = model.jnt_qposadr[1:1 + constants.NUM_JOINTS]
+    targets = np.repeat(np.stack([POSE_LIBRARY[p].joints for p in names]), per_pose, 0)
+    targets = targets + rng.uniform(-joint_noise, joint_noise, targets.shape)
+    lo, hi = model.jnt_range[1:1 + constants.NUM_JOINTS].T
+    targets = np.clip(targets, lo, hi)
+    pitch = np.repeat([POSE_LIBRARY[p].pitch for p in names], per_pose)
+    qpos[:] = model.qpos0
+    qvel[:] = 0.0
+    qpos[:, qadr] = targets
+    qpos[:, 3:7] = quat_from_euler(np.zeros(n), pitch, np.zeros(n))
+    qpos[:, 2] = 2.0
+    seat_on_ground(model, sims, np.arange(n), clearance=0.01)
+    ctrl[:] = targets
+    out, elapsed = {}, 0.0
+    for k, name in sorted(enumerate(names), key=lambda kn: POSE_LIBRARY[kn[1]].settle_time):
+        remaining = POSE_LIBRARY[name].settle_time - elapsed
+        if remaining > 0:
+            sims.step(nstep=int(round(remaining / model.opt.timestep)),
+                      stage=mujoco.mjtStage.mjSTAGE_VEL)
+            elapsed += remaining
+        rows = slice(k * per_pose, (k + 1) * per_pose)
+        out[name] = (qpos[rows].copy(), qvel[rows].copy())
+    return out
+
+
+def seat_on_ground(model: mujoco.MjModel, sims: mjbatch.Batch, ids: np.ndarray,
+                   clearance: float = 0.005) -> None:
+    """Shifts the base of sims ``ids`` vertically so their lowest geom is at ``clearance``."""
+    sims.forward(ids, stage=mujoco.mjtStage.mjSTAGE_POS)
+    low = lowest_point(model, sims.bind("geom_xpos")[ids], sims.bind("geom_xmat")[ids],
+                       robot_geoms(model))
+    qpos = sims.bind("qpos")
+    qpos[ids, 2] += clearance - low

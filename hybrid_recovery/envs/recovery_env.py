@@ -1,0 +1,322 @@
+"""RecoveryEnv: N H1-2 robots in a persistent ``mujoco.batch.Batch``, the paper's MDP.
+
+One control step (50 Hz) = ``decimation`` physics substeps; within it each robot's PD
+targets follow its per-episode actuation delay. All MDP work is vectorised numpy over
+the batch; balance inputs are MuJoCo sensors (see :mod:`hybrid_recovery.envs.scene`)
+turned into balance quantities by :mod:`hybrid_recovery.dynamics`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import mujoco
+import numpy as np
+import torch
+from mujoco import batch as mjbatch
+from rsl_rl.env import VecEnv
+from tensordict import TensorDict
+
+from hybrid_recovery.dynamics import GRAVITY, net_centroidal_wrench
+from hybrid_recovery.dynamics.capturability import capture_point
+from hybrid_recovery.dynamics.support import signed_distance_batched
+from hybrid_recovery.envs.config import EnvConfig, default_config
+from hybrid_recovery.envs.curriculum import Curriculum
+from hybrid_recovery.envs.domain_rand import Randomizer
+from hybrid_recovery.envs.initial_states import (
+    POSES,
+    quat_from_euler,
+    quat_mul,
+    seat_on_ground,
+    settle_pool,
+)
+from hybrid_recovery.envs.pushes import Pushes
+from hybrid_recovery.envs.rewards import RewardState, compute_rewards
+from hybrid_recovery.envs.scene import build_scene, read_contacts
+from hybrid_recovery.envs.terminations import TERMINATIONS, StuckLow, success_step
+from hybrid_recovery.observation.actor import actor_observation, noise_halfwidths, projected_gravity
+from hybrid_recovery.robot import constants
+from hybrid_recovery.robot.mjcf import default_qpos
+
+PRIVILEGED_DIM = 17
+"""CoM position (3), velocity (3), acceleration (3), p_l (3), L (3), ξ − p_c,xy (2)."""
+
+_HARD_POSES = ("sitting", "supine", "prone")
+_ACTION_CLIP = 10.0
+
+
+class RecoveryEnv(VecEnv):
+    """Batched fall-recovery environment for rsl-rl (``rsl_rl.env.VecEnv``).
+
+    Observation groups: ``policy`` (87, noisy proprioception) and ``critic`` (87 clean
+    + 17 privileged balance quantities, or 87 with ``privileged_critic=False``).
+
+    Args:
+        cfg: Environment configuration; None for :func:`default_config`.
+        device: torch device of the returned tensors.
+    """
+
+    def __init__(self, cfg: EnvConfig | None = None, device: str = "cpu") -> None:
+        self.cfg = cfg = cfg or default_config()
+        if cfg.num_envs < 1:
+            raise ValueError(f"num_envs must be >= 1, got {cfg.num_envs}")
+        self.device = device
+        self.num_envs, self.num_actions = cfg.num_envs, constants.NUM_JOINTS
+        self.dt = cfg.physics_dt * cfg.decimation
+        self.max_episode_length = int(math.ceil(cfg.episode_length_s / self.dt))
+        self.rng = np.random.default_rng(cfg.seed)
+        self.model, self.layout = build_scene(cfg.model_path, cfg.physics_dt)
+        n, m = cfg.num_envs, self.model
+        self.sims = mjbatch.Batch(m, n, cfg.num_threads, persistent=True)
+        b = self.sims.bind
+        self.qpos, self.qvel, self.ctrl = b("qpos"), b("qvel"), b("ctrl")
+        self.xfrc = b("xfrc_applied")
+        self.qadr = m.jnt_qposadr[1:1 + constants.NUM_JOINTS]
+        self.dadr = m.jnt_dofadr[1:1 + constants.NUM_JOINTS]
+        self.torso = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, constants.TORSO_BODY)
+        self.randomizer = Randomizer(m, self.sims, cfg.domain_rand)
+        self.curriculum = Curriculum(cfg.curriculum)
+        self.pushes = Pushes(cfg.pushes, n, self.dt)
+        self.stuck = StuckLow(n, cfg.stuck_time, cfg.stuck_rise)
+        self.pool = settle_pool(m, per_pose=32, rng=self.rng, nthread=cfg.num_threads)
+        self.noise = noise_halfwidths(cfg.noise.ang_vel, cfg.noise.gravity, cfg.noise.joint_pos,
+                                      cfg.noise.joint_vel)
+        self.h_star = cfg.rewards.height_target or float(self._com_height(default_qpos(m)))
+        delay = np.round(np.asarray(cfg.delay_range) / cfg.physics_dt).astype(int)
+        self._delay_steps = (int(delay[0]), int(delay[1]))
+        self._hist_len = 1 + (delay[1] + cfg.decimation - 1) // cfg.decimation
+        self.target_hist = np.zeros((n, self._hist_len, self.num_actions))
+        self.delay_offset = np.zeros((n, cfg.decimation), dtype=int)
+        self.action = np.zeros((n, self.num_actions))
+        self.last_action = np.zeros_like(self.action)
+        self.episode_length_buf = torch.zeros(n, dtype=torch.long)
+        self.prev_momentum = np.zeros((n, 6))
+        self.prev_com_vel = np.zeros((n, 3))
+        self.upright_time = np.zeros(n)
+        self.succeeded = np.zeros(n, dtype=bool)
+        self.episode_sums: dict[str, np.ndarray] = {}
+        self.nan_resets = 0
+        self._state: dict[str, np.ndarray] = {}
+        self._reset(np.arange(n))
+        self._read_state()
+        self._obs = self._observations()
+
+    # ------------------------------------------------------------------ public API
+    def get_observations(self) -> TensorDict:
+        return self._obs
+
+    def step(self, actions: torch.Tensor) -> tuple[TensorDict, torch.Tensor, torch.Tensor, dict]:
+        self.last_action = self.action
+        self.action = np.clip(actions.detach().cpu().numpy().astype(float), -_ACTION_CLIP,
+                              _ACTION_CLIP)
+        targets = constants.DEFAULT_JOINT_POS + self.cfg.action_scale * self.action
+        lo_hi = self.randomizer.jnt_range[:, 1:1 + self.num_actions]
+        targets = np.clip(targets, lo_hi[..., 0], lo_hi[..., 1])
+        self.target_hist = np.roll(self.target_hist, 1, axis=1)
+        self.target_hist[:, 0] = targets
+        self.xfrc[:, self.torso, :3] = self.pushes.force(self.upright_time, self.rng,
+                                                       self.curriculum.difficulty)
+        failed = self._physics()
+        self.episode_length_buf += 1
+        self._read_state()
+        s = self._state
+        dones_by = {
+            "torso_contact": s["torso_force"] > self.cfg.torso_force_limit,
+            "stuck_low": self.stuck.update(s["height"], self.dt,
+                                           s["height"] < self.cfg.upright_height),
+            "nan": failed,
+        }
+        terminated = np.logical_or.reduce(list(dones_by.values()))
+        time_out = (self.episode_length_buf.numpy() >= self.max_episode_length) & ~terminated
+        dones_by["timeout"] = time_out
+        reward, parts = compute_rewards(self._reward_state(terminated), self.cfg.rewards,
+                                        self.h_star, self.dt)
+        reward = np.where(failed, 0.0, reward)
+        for name, value in parts.items():
+            self.episode_sums.setdefault(name, np.zeros(self.num_envs))
+            self.episode_sums[name] += np.where(failed, 0.0, value)
+        self.upright_time = success_step(self.upright_time, s, self.dt)
+        self.succeeded |= self.upright_time >= 1.0
+        done = terminated | time_out
+        extras = {"time_outs": torch.from_numpy(time_out), "log": {}}
+        ids = np.flatnonzero(done)
+        if len(ids):
+            extras["log"] = self._episode_log(ids, dones_by)
+            self._reset(ids)
+            self._read_state(ids)
+        self._obs = self._observations()
+        return (self._obs, torch.from_numpy(reward.astype(np.float32)),
+                torch.from_numpy(done), extras)
+
+    # ------------------------------------------------------------------ physics
+    def _physics(self) -> np.ndarray:
+        """Steps ``decimation`` substeps with the delayed targets; returns failed envs."""
+        failed = np.zeros(self.num_envs, dtype=bool)
+        rows = np.arange(self.num_envs)
+        for k in range(self.cfg.decimation):
+            self.ctrl[:] = self.target_hist[rows, self.delay_offset[:, k]]
+            try:
+                self.sims.step(nstep=1, stage=mujoco.mjtStage.mjSTAGE_VEL)
+            except mjbatch.SimulationError as err:
+                failed[np.asarray(err.ids)] = True
+        bad = ~np.isfinite(self.qpos).all(1) | ~np.isfinite(self.qvel).all(1)
+        failed |= bad | (np.abs(self.qvel) > 1e3).any(1)
+        if failed.any():
+            self.nan_resets += int(failed.sum())
+            ids = np.flatnonzero(failed)
+            self._reset(ids)
+        return failed
+
+    # ------------------------------------------------------------------ state
+    def _com_height(self, qpos: np.ndarray) -> float:
+        data = mujoco.MjData(self.model)
+        data.qpos[:] = qpos
+        mujoco.mj_forward(self.model, data)
+        return float(data.subtree_com[1, 2])
+
+    def _read_state(self, ids: np.ndarray | None = None) -> None:
+        """Balance quantities from sensordata (all envs; ``ids`` = just reset ones)."""
+        sd = self.sims.bind("sensordata")
+        lay, s = self.layout, self._state
+        mass = self.randomizer.mass[:, 1:].sum(1)
+        com, vel = sd[:, lay.com], sd[:, lay.com_linvel]
+        lin = mass[:, None] * vel
+        ang = sd[:, lay.com_angmom]
+        height = np.maximum(com[:, 2], 1e-3)
+        if ids is not None:  # episodes just reset: no history for finite differences
+            self.prev_momentum[ids] = np.concatenate([lin[ids], ang[ids]], 1)
+            self.prev_com_vel[ids] = vel[ids]
+        force, torque = net_centroidal_wrench(lin, ang, self.prev_momentum[:, :3],
+                                              self.prev_momentum[:, 3:], self.dt)
+        acc = (vel - self.prev_com_vel) / self.dt
+        self.prev_momentum = np.concatenate([lin, ang], 1)
+        self.prev_com_vel = vel.copy()
+        cp = capture_point(com[:, :2], vel[:, :2], height, g=GRAVITY)
+        active, normal, points = read_contacts(sd, lay)
+        active &= normal > 1.0
+        feet = np.concatenate([lay.group_slots["left_foot"], lay.group_slots["right_foot"]])
+        support = np.concatenate([lay.group_slots["hands"], lay.group_slots["elbows"]])
+        quat = sd[:, lay.quat]
+        s.update(
+            com=com, com_vel=vel, com_acc=acc, lin=lin, ang=ang, cp=cp, height=com[:, 2],
+            height_vel=vel[:, 2], net_force=force, net_torque=torque,
+            d_com=signed_distance_batched(com[:, :2], points, active),
+            d_cp=signed_distance_batched(cp, points[:, feet], active[:, feet]),
+            torso_force=normal[:, lay.group_slots["torso"]].sum(1),
+            support_contacts=active[:, support].sum(1).astype(float),
+            gyro=sd[:, lay.gyro], quat=quat, gravity_b=projected_gravity(quat),
+            q=self.qpos[:, self.qadr], dq=self.qvel[:, self.dadr],
+            torque=self.sims.bind("actuator_force"),
+        )
+
+    def _reward_state(self, terminated: np.ndarray) -> RewardState:
+        s = self._state
+        lo, hi = self.randomizer.jnt_range[:, 1:1 + self.num_actions].transpose(2, 0, 1)
+        mid, half = (lo + hi) / 2, (hi - lo) / 2 * 0.95
+        excess = np.maximum(np.abs(s["q"] - mid) - half, 0.0).sum(1)
+        return RewardState(
+            height=s["height"], height_vel=s["height_vel"], com_distance=s["d_com"],
+            cp_distance=s["d_cp"], net_force=s["net_force"], net_torque=s["net_torque"],
+            torque=s["torque"], limit_violation=excess, action=self.action,
+            last_action=self.last_action, gravity_b=s["gravity_b"],
+            support_contacts=s["support_contacts"], terminated=terminated,
+        )
+
+    def _observations(self) -> TensorDict:
+        s = self._state
+        clean = actor_observation(s["gyro"], s["quat"], s["q"], s["dq"], self.action)
+        noisy = clean + self.rng.uniform(-1.0, 1.0, clean.shape).astype(np.float32) * self.noise
+        critic = clean
+        if self.cfg.privileged_critic:
+            critic = np.concatenate([clean, self._privileged()], 1)
+        return TensorDict({"policy": torch.from_numpy(noisy),
+                           "critic": torch.from_numpy(critic.astype(np.float32))},
+                          batch_size=[self.num_envs])
+
+    def _privileged(self) -> np.ndarray:
+        """CoM state, momenta and capture point in the heading frame, (N, 17)."""
+        s = self._state
+        w, x, y, z = s["quat"].T
+        yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+        c, si = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
+
+        def heading(v: np.ndarray) -> np.ndarray:
+            out = v.copy()
+            out[:, 0:1], out[:, 1:2] = c * v[:, 0:1] + si * v[:, 1:2], -si * v[:, 0:1] + c * v[:, 1:2]
+            return out
+
+        rel = s["com"].copy()
+        rel[:, :2] -= self.qpos[:, :2]
+        cp_rel = np.concatenate([s["cp"] - s["com"][:, :2], np.zeros((self.num_envs, 1))], 1)
+        return np.concatenate([heading(rel), heading(s["com_vel"]), heading(s["com_acc"]),
+                               heading(s["lin"]), heading(s["ang"]), heading(cp_rel)[:, :2]], 1)
+
+    # ------------------------------------------------------------------ resets
+    def _sample_poses(self, count: int) -> np.ndarray:
+        weights = np.array([self.cfg.pose_weights.get(p, 0.0) for p in POSES])
+        if self.curriculum.stage == 1:
+            weights = weights * np.isin(POSES, self.cfg.curriculum.stage1_poses)
+        elif self.curriculum.stage == 2:
+            hard = np.isin(POSES, _HARD_POSES)
+            weights = np.where(hard, weights * self.curriculum.level, weights)
+        if weights.sum() <= 0:
+            raise ValueError(f"pose_weights give no pose to start from: {self.cfg.pose_weights}")
+        return self.rng.choice(len(POSES), size=count, p=weights / weights.sum())
+
+    def _reset(self, ids: np.ndarray) -> None:
+        n, dr, rng = len(ids), self.cfg.domain_rand, self.rng
+        poses = self._sample_poses(n)
+        qpos = np.empty((n, self.model.nq))
+        for k, name in enumerate(POSES):
+            rows = np.flatnonzero(poses == k)
+            if len(rows):
+                pool = self.pool[name][0]
+                qpos[rows] = pool[rng.integers(len(pool), size=len(rows))]
+        qpos[:, :2] += rng.uniform(-dr.init_base_pos, dr.init_base_pos, (n, 2))
+        rpy = rng.uniform(-dr.init_base_rot, dr.init_base_rot, (n, 3))
+        turn = quat_from_euler(rpy[:, 0], rpy[:, 1], rpy[:, 2] + rng.uniform(-np.pi, np.pi, n))
+        qpos[:, 3:7] = quat_mul(turn, qpos[:, 3:7])
+        lo, hi = self.model.jnt_range[1:1 + self.num_actions].T
+        joints = qpos[:, self.qadr] + rng.uniform(-dr.init_joint_pos, dr.init_joint_pos,
+                                                  (n, self.num_actions))
+        qpos[:, self.qadr] = np.clip(joints, lo, hi)
+        self.sims.reset(ids, stage=mujoco.mjtStage.mjSTAGE_NONE)
+        self.qpos[ids] = qpos
+        self.qvel[ids] = 0.0
+        seat_on_ground(self.model, self.sims, ids)
+        self.randomizer.randomize(ids, rng, self.curriculum.difficulty)
+        self.randomizer.set_limits(ids, self.curriculum.torque_scale,
+                                   self.curriculum.position_limit_factor)
+        delay = rng.integers(self._delay_steps[0], self._delay_steps[1] + 1, n)
+        sub = np.arange(self.cfg.decimation)
+        self.delay_offset[ids] = np.clip(
+            -((sub[None, :] - delay[:, None]) // self.cfg.decimation), 0, self._hist_len - 1)
+        self.target_hist[ids] = self.qpos[ids][:, None, self.qadr]
+        self.ctrl[ids] = self.target_hist[ids, 0]
+        self.action[ids] = 0.0
+        self.last_action[ids] = 0.0
+        self.xfrc[ids] = 0.0
+        self.sims.forward(ids)
+        self.pushes.reset(ids, rng)
+        self.stuck.reset(ids, self.sims.bind("sensordata")[ids, self.layout.com][:, 2])
+        self.episode_length_buf[torch.from_numpy(ids)] = 0
+        self.upright_time[ids] = 0.0
+        self.succeeded[ids] = False
+
+    def _episode_log(self, ids: np.ndarray, dones_by: dict[str, np.ndarray]) -> dict:
+        steps = np.maximum(self.episode_length_buf.numpy()[ids], 1)
+        log: dict[str, torch.Tensor | float] = {}
+        for name, sums in self.episode_sums.items():
+            log[f"reward/{name}"] = torch.from_numpy(sums[ids] / (steps * self.dt))
+            sums[ids] = 0.0
+        for name in TERMINATIONS:
+            log[f"termination/{name}"] = torch.from_numpy(dones_by[name][ids].astype(np.float32))
+        log["episode/success"] = torch.from_numpy(self.succeeded[ids].astype(np.float32))
+        log["episode/final_com_height"] = torch.from_numpy(self._state["height"][ids])
+        advanced = self.curriculum.record(self.succeeded[ids])
+        del advanced
+        log["curriculum/stage"] = float(self.curriculum.stage)
+        log["curriculum/level"] = float(self.curriculum.level)
+        log["curriculum/torque_scale"] = float(self.curriculum.torque_scale)
+        log["episode/nan_resets_total"] = float(self.nan_resets)
+        return log

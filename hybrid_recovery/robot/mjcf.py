@@ -1,0 +1,136 @@
+"""Loading the H1-2 MJCF into MuJoCo with the project's floor and PD position actuators.
+
+The robot file carries bodies, inertias, joints, collision primitives and sites only; the
+floor and the actuators are added here with ``mujoco.MjSpec`` so that gains and limits
+come from :mod:`hybrid_recovery.robot.constants` alone. Any H1-2 MJCF with the joint
+names of ``constants.JOINT_NAMES`` loads (ours, or the manufacturer's, whose meshes are
+resolved relative to its own directory).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from hybrid_recovery.robot import constants
+
+H1_2_MJCF: Path = Path(__file__).resolve().parents[2] / "models" / "h1_2" / "h1_2.xml"
+"""The project's own H1-2 MJCF, ``models/h1_2/h1_2.xml`` at the repository top level.
+
+Resolved relative to this source file, which assumes the package is installed editable
+(``pip install -e .``) or run from a checkout.
+"""
+
+FLOOR_NAME = "floor"
+"""Name of the ground plane geom (contype 0, conaffinity 1: robot geoms hit only it)."""
+
+
+def load_spec(
+    path: str | Path | None = None,
+    *,
+    floor: bool = True,
+    actuators: bool = True,
+    timestep: float | None = None,
+) -> mujoco.MjSpec:
+    """Parses an H1-2 MJCF with a floor and one PD position actuator per joint.
+
+    Actuator ``i`` drives ``constants.JOINT_NAMES[i]`` whatever the file's joint order:
+    τ_i = k_p,i (q_ref,i − q_i) − k_d,i q̇_i with ``ctrl = q_ref`` [rad], clipped to
+    ±``EFFORT_LIMITS[i]`` [N·m]; the control range is unlimited. Actuators declared in
+    the file are removed, so ``model.nu`` is 27 with actuators and 0 without.
+
+    Args:
+        path: MJCF file; ``None`` for the project's model :data:`H1_2_MJCF`.
+        floor: Add a ground plane named ``floor`` (z = 0) if the file has no geom of
+            that name.
+        actuators: Add the 27 position actuators.
+        timestep: Simulation timestep [s]; ``None`` keeps the file's.
+
+    Returns:
+        The model's spec, ready to extend (e.g. with sensors) or compile.
+
+    Raises:
+        FileNotFoundError: The file does not exist.
+        ValueError: A joint of ``constants.JOINT_NAMES`` is not in the file.
+    """
+    path = H1_2_MJCF if path is None else Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"H1-2 MJCF not found: {path}")
+    spec = mujoco.MjSpec.from_file(str(path))
+    joint_names = {joint.name for joint in spec.joints}
+    for name in constants.JOINT_NAMES:
+        if name not in joint_names:
+            raise ValueError(f"H1-2 MJCF {path} has no joint named '{name}'")
+
+    if timestep is not None:
+        spec.option.timestep = timestep
+    if floor and spec.geom(FLOOR_NAME) is None:
+        _add_floor(spec)
+    for actuator in list(spec.actuators):
+        spec.delete(actuator)
+    if actuators:
+        _add_position_actuators(spec)
+    return spec
+
+
+def load_mjmodel(
+    path: str | Path | None = None,
+    *,
+    floor: bool = True,
+    actuators: bool = True,
+    timestep: float | None = None,
+) -> mujoco.MjModel:
+    """Compiles :func:`load_spec` (see there for the arguments and errors)."""
+    return load_spec(path, floor=floor, actuators=actuators, timestep=timestep).compile()
+
+
+def default_qpos(model: mujoco.MjModel) -> np.ndarray:
+    """The standing state q*: base at (0, 0, h*), identity orientation, joints at q*.
+
+    Joint values are written at the model's own qpos addresses, so any H1-2 model with
+    the names of ``constants.JOINT_NAMES`` works.
+
+    Args:
+        model: An H1-2 model whose first joint is the free floating-base joint.
+
+    Returns:
+        qpos of shape (model.nq,): position [m], quaternion (w, x, y, z), joints [rad].
+    """
+    qpos = model.qpos0.copy()
+    base = model.jnt_qposadr[0]
+    qpos[base : base + 3] = (0.0, 0.0, constants.DEFAULT_BASE_HEIGHT)
+    qpos[base + 3 : base + 7] = (1.0, 0.0, 0.0, 0.0)
+    for name, value in zip(constants.JOINT_NAMES, constants.DEFAULT_JOINT_POS, strict=True):
+        qpos[model.jnt_qposadr[model.joint(name).id]] = value
+    return qpos
+
+
+def _add_floor(spec: mujoco.MjSpec) -> None:
+    """Adds the infinite ground plane z = 0 (collides with robot geoms, not itself)."""
+    spec.worldbody.add_geom(
+        name=FLOOR_NAME,
+        type=mujoco.mjtGeom.mjGEOM_PLANE,
+        size=[0.0, 0.0, 0.05],
+        contype=0,
+        conaffinity=1,
+        condim=3,
+        rgba=[0.35, 0.4, 0.45, 1.0],
+    )
+
+
+def _add_position_actuators(spec: mujoco.MjSpec) -> None:
+    """Adds actuator i = PD position servo on JOINT_NAMES[i] with KP[i], KD[i], ±τ_max."""
+    for name, kp, kd, tau_max in zip(
+        constants.JOINT_NAMES,
+        constants.KP,
+        constants.KD,
+        constants.EFFORT_LIMITS,
+        strict=True,
+    ):
+        actuator = spec.add_actuator(name=name, target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
+        actuator.set_to_position(kp=float(kp), kv=float(kd))
+        actuator.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE
+        actuator.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
+        actuator.forcerange = [-float(tau_max), float(tau_max)]

@@ -1,0 +1,45 @@
+"""Shared fixtures: the project's model and, where ../shared is present, the reference."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import pytest
+
+REFERENCE_DIR = Path(__file__).resolve().parents[1].parent / "shared" / "reference" / "unitree_h1_2"
+REFERENCE_MJCF = REFERENCE_DIR / "h1_2_handless.xml"
+
+
+def random_state(model: mujoco.MjModel, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """A random (qpos, qvel): random base pose and velocity, joints inside their ranges."""
+    qpos = np.zeros(model.nq)
+    qpos[:3] = rng.normal(size=3)
+    quat = rng.normal(size=4)
+    qpos[3:7] = quat / np.linalg.norm(quat)
+    rng_lo, rng_hi = model.jnt_range[1:, 0], model.jnt_range[1:, 1]
+    qpos[7:] = rng.uniform(rng_lo, rng_hi)
+    qvel = rng.normal(size=model.nv)
+    return qpos, qvel
+
+
+@pytest.fixture(scope="session")
+def own_model():
+    from hybrid_recovery.dynamics import RobotModel
+
+    return RobotModel.h1_2()
+
+
+@pytest.fixture(scope="session")
+def reference_model():
+    if not REFERENCE_MJCF.is_file():
+        pytest.skip(f"reference model not found at {REFERENCE_MJCF} (../shared absent)")
+    from hybrid_recovery.dynamics import RobotModel
+
+    return RobotModel.from_mjcf(REFERENCE_MJCF)
+
+
+@pytest.fixture(params=["own", "reference"])
+def robot(request):
+    return request.getfixturevalue(f"{request.param}_model")
