@@ -116,6 +116,29 @@ def test_domain_id_is_validated_before_touching_dds() -> None:
         DdsChannel(233)
 
 
+@pytest.mark.dds
+def test_a_domain_stays_bound_to_its_first_interface() -> None:
+    pytest.importorskip("cyclonedds", reason="cyclonedds (extra 'deploy') not installed")
+    domain_id = random.SystemRandom().randint(1, 200)
+    code = (
+        "from hybrid_recovery.deploy.protocol import DdsChannel\n"
+        f"DdsChannel({domain_id}, 'lo'); DdsChannel({domain_id}, 'lo')\n"
+        f"try:\n    DdsChannel({domain_id}, 'eth9')\nexcept ValueError as e:\n    print(e)\n"
+    )
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=SUBPROCESS_TIMEOUT_S,
+    )
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == (
+        f"DDS domain {domain_id} is already bound to interface 'lo' in this process, not 'eth9'"
+    )
+
+
 if __name__ == "__main__":
     role, domain = sys.argv[1], int(sys.argv[2])
     report = run_robot(domain) if role == "robot" else run_controller(domain)

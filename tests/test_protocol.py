@@ -1,7 +1,5 @@
 """The ``unitree_hg`` messages: C layout, CRC golden values, pack round trips, bit flips."""
 
-from __future__ import annotations
-
 import os
 import struct
 import subprocess
@@ -72,14 +70,25 @@ def random_low_state(rng: np.random.Generator) -> LowState_:
     imu = IMUState_(_f32(rng, 4), _f32(rng, 3), _f32(rng, 3), _f32(rng, 3), i16[0])
     motors = [
         MotorState_(
-            _u(rng, 8, 1)[0], *_f32(rng, 4), i16[1 + 2 * k : 3 + 2 * k], _f32(rng, 1)[0],
-            _u(rng, 32, 2), _u(rng, 32, 1)[0], _u(rng, 32, 4),
+            _u(rng, 8, 1)[0],
+            *_f32(rng, 4),
+            i16[1 + 2 * k : 3 + 2 * k],
+            _f32(rng, 1)[0],
+            _u(rng, 32, 2),
+            _u(rng, 32, 1)[0],
+            _u(rng, 32, 4),
         )
         for k in range(NUM_MOTORS)
     ]
     return LowState_(
-        _u(rng, 32, 2), *_u(rng, 8, 2), _u(rng, 32, 1)[0], imu, motors,
-        bytes(_u(rng, 8, 40)), _u(rng, 32, 4), _u(rng, 32, 1)[0],
+        _u(rng, 32, 2),
+        *_u(rng, 8, 2),
+        _u(rng, 32, 1)[0],
+        imu,
+        motors,
+        bytes(_u(rng, 8, 40)),
+        _u(rng, 32, 4),
+        _u(rng, 32, 1)[0],
     )
 
 
@@ -191,6 +200,45 @@ def test_idl_type_names_are_unitrees() -> None:
     for cls in (MotorCmd_, LowCmd_, IMUState_, MotorState_, LowState_):
         name = cls.__idl__.idl_transformed_typename
         assert name == f"unitree_hg::msg::dds_::{cls.__name__}"
+
+
+def test_xtypes_identity_matches_unitree_style_declaration() -> None:
+    """Written as Unitree's generated IDL (``types.array[...]``), the type ids agree.
+
+    (No ``from __future__ import annotations`` in this file: cyclonedds would have to
+    resolve these local classes from string annotations.)
+    """
+    pytest.importorskip("cyclonedds", reason="cyclonedds (extra 'deploy') not installed")
+    from dataclasses import dataclass
+
+    from cyclonedds.idl import IdlStruct
+    from cyclonedds.idl import annotations as annotate
+    from cyclonedds.idl import types as t
+
+    @dataclass
+    @annotate.final
+    @annotate.autoid("sequential")
+    class RefMotorCmd(IdlStruct, typename="unitree_hg.msg.dds_.MotorCmd_"):
+        mode: t.uint8
+        q: t.float32
+        dq: t.float32
+        tau: t.float32
+        kp: t.float32
+        kd: t.float32
+        reserve: t.uint32
+
+    @dataclass
+    @annotate.final
+    @annotate.autoid("sequential")
+    class RefLowCmd(IdlStruct, typename="unitree_hg.msg.dds_.LowCmd_"):
+        mode_pr: t.uint8
+        mode_machine: t.uint8
+        motor_cmd: t.array[RefMotorCmd, 35]
+        reserve: t.array[t.uint32, 4]
+        crc: t.uint32
+
+    assert RefLowCmd.__idl__.get_type_id() == LowCmd_.__idl__.get_type_id()
+    assert RefLowCmd.deserialize(with_crc(default_low_cmd()).serialize()).crc == 4262932383
 
 
 def test_cdr_round_trip_keeps_crc_valid() -> None:

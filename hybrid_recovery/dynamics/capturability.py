@@ -52,7 +52,7 @@ def capture_point(
     h = np.asarray(height, dtype=float)
     if np.any(h <= 0.0):
         raise ValueError("capture_point: height must be > 0")
-    omega = lip_frequency(h, g)[..., None]
+    omega = np.sqrt(g / h[..., None])  # ω = √(g/h)
     return np.asarray(com_xy, dtype=float) + np.asarray(com_vel_xy, dtype=float) / omega
 
 
@@ -287,7 +287,7 @@ def one_step_capture_region(
     if max_step_time is not None and np.isfinite(max_step_time):
         growth.append(np.expm1(omega * max_step_time))
     elif max_step_time is not None:
-        # Truncate the unbounded union where T lies beyond reach anyway.
+        # Truncate the union where T(t) lies over `reach` from ξ₀, out of the disc.
         reach = 2.0 * (step_length + foot_size + np.linalg.norm(xi - center)) + 1.0
         gap = max(signed_distance(xi, stance), _MIN_DIST)
         growth.append(max(growth[0], reach / gap))

@@ -83,7 +83,8 @@ def build_pinocchio_model(mj: mujoco.MjModel) -> pin.Model:
             elif jtype == mujoco.mjtJoint.mjJNT_HINGE:
                 jmodel = _joint_model(mj.jnt_axis[first])
             else:
-                raise ValueError(f"joint '{mj.joint(first).name}' of type {int(jtype)} is not supported")
+                raise ValueError(f"joint '{mj.joint(first).name}' of type {int(jtype)} "
+                                 "is not supported")
             jname = mujoco.mj_id2name(mj, mujoco.mjtObj.mjOBJ_JOINT, first) or f"{name}_joint"
             joint_id = model.addJoint(parent_joint, jmodel, placement * offset, jname)
             if jtype == mujoco.mjtJoint.mjJNT_HINGE:

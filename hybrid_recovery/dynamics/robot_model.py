@@ -13,8 +13,8 @@ from hybrid_recovery.dynamics.capturability import capture_point
 from hybrid_recovery.dynamics.conventions import (
     qacc_to_pin,
     qpos_to_pin,
-    qvel_to_pin,
     quat_wxyz_to_matrix,
+    qvel_to_pin,
 )
 from hybrid_recovery.dynamics.pinocchio_model import build_pinocchio_model
 

@@ -103,7 +103,7 @@ def robot_geoms(model: mujoco.MjModel) -> np.ndarray:
 def settle_pool(model: mujoco.MjModel, per_pose: int, rng: np.random.Generator,
                 joint_noise: float = 0.1,
                 nthread: int = 0) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """Settled (qpos, qvel) for every pose, in the order of POSES: ``{pose: ((per_pose, nq), (per_pose, nv))}``."""
+    """Settled states of every pose: ``{pose: (qpos (per_pose, nq), qvel (per_pose, nv))}``."""
     names = list(POSE_LIBRARY)
     n = per_pose * len(names)
     sims = mjbatch.Batch(model, n, nthread, persistent=True)

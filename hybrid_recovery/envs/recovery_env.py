@@ -97,8 +97,12 @@ class RecoveryEnv(VecEnv):
         self.episode_sums: dict[str, np.ndarray] = {}
         self.nan_resets = 0
         self._state: dict[str, np.ndarray] = {}
+        groups = self.layout.group_slots
+        self._feet_slots = np.concatenate([groups["left_foot"], groups["right_foot"]])
+        self._support_slots = np.concatenate([groups["hands"], groups["elbows"]])
         self._reset(np.arange(n))
         self._read_state()
+        self._read_state(np.arange(n))
         self._obs = self._observations()
 
     # ------------------------------------------------------------------ public API
@@ -175,29 +179,26 @@ class RecoveryEnv(VecEnv):
         return float(data.subtree_com[1, 2])
 
     def _read_state(self, ids: np.ndarray | None = None) -> None:
-        """Balance quantities from sensordata (all envs; ``ids`` = just reset ones)."""
-        sd = self.sims.bind("sensordata")
-        lay, s = self.layout, self._state
-        mass = self.randomizer.mass[:, 1:].sum(1)
+        """Balance quantities from sensordata, for all envs or just the reset ``ids``."""
+        rows = slice(None) if ids is None else ids
+        sd = self.sims.bind("sensordata")[rows].copy()
+        lay = self.layout
+        mass = self.randomizer.mass[rows, 1:].sum(1)
         com, vel = sd[:, lay.com], sd[:, lay.com_linvel]
-        lin = mass[:, None] * vel
-        ang = sd[:, lay.com_angmom]
-        height = np.maximum(com[:, 2], 1e-3)
-        if ids is not None:  # episodes just reset: no history for finite differences
-            self.prev_momentum[ids] = np.concatenate([lin[ids], ang[ids]], 1)
-            self.prev_com_vel[ids] = vel[ids]
-        force, torque = net_centroidal_wrench(lin, ang, self.prev_momentum[:, :3],
-                                              self.prev_momentum[:, 3:], self.dt)
-        acc = (vel - self.prev_com_vel) / self.dt
-        self.prev_momentum = np.concatenate([lin, ang], 1)
-        self.prev_com_vel = vel.copy()
-        cp = capture_point(com[:, :2], vel[:, :2], height, g=GRAVITY)
+        lin, ang = mass[:, None] * vel, sd[:, lay.com_angmom]
+        momentum = np.concatenate([lin, ang], 1)
+        if ids is not None:  # a new episode: no history for finite differences
+            self.prev_momentum[ids], self.prev_com_vel[ids] = momentum, vel
+        prev = self.prev_momentum[rows]
+        force, torque = net_centroidal_wrench(lin, ang, prev[:, :3], prev[:, 3:], self.dt)
+        acc = (vel - self.prev_com_vel[rows]) / self.dt
+        self.prev_momentum[rows], self.prev_com_vel[rows] = momentum, vel
+        cp = capture_point(com[:, :2], vel[:, :2], np.maximum(com[:, 2], 1e-3), g=GRAVITY)
         active, normal, points = read_contacts(sd, lay)
         active &= normal > 1.0
-        feet = np.concatenate([lay.group_slots["left_foot"], lay.group_slots["right_foot"]])
-        support = np.concatenate([lay.group_slots["hands"], lay.group_slots["elbows"]])
+        feet, support = self._feet_slots, self._support_slots
         quat = sd[:, lay.quat]
-        s.update(
+        new = dict(
             com=com, com_vel=vel, com_acc=acc, lin=lin, ang=ang, cp=cp, height=com[:, 2],
             height_vel=vel[:, 2], net_force=force, net_torque=torque,
             d_com=signed_distance_batched(com[:, :2], points, active),
@@ -205,9 +206,14 @@ class RecoveryEnv(VecEnv):
             torso_force=normal[:, lay.group_slots["torso"]].sum(1),
             support_contacts=active[:, support].sum(1).astype(float),
             gyro=sd[:, lay.gyro], quat=quat, gravity_b=projected_gravity(quat),
-            q=self.qpos[:, self.qadr], dq=self.qvel[:, self.dadr],
-            torque=self.sims.bind("actuator_force"),
+            q=self.qpos[rows][:, self.qadr], dq=self.qvel[rows][:, self.dadr],
+            torque=self.sims.bind("actuator_force")[rows].copy(),
         )
+        if ids is None:
+            self._state = new
+        else:
+            for key, value in new.items():
+                self._state[key][ids] = value
 
     def _reward_state(self, terminated: np.ndarray) -> RewardState:
         s = self._state
@@ -242,7 +248,8 @@ class RecoveryEnv(VecEnv):
 
         def heading(v: np.ndarray) -> np.ndarray:
             out = v.copy()
-            out[:, 0:1], out[:, 1:2] = c * v[:, 0:1] + si * v[:, 1:2], -si * v[:, 0:1] + c * v[:, 1:2]
+            x, y = v[:, 0:1], v[:, 1:2]
+            out[:, 0:1], out[:, 1:2] = c * x + si * y, -si * x + c * y
             return out
 
         rel = s["com"].copy()

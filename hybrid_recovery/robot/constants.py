@@ -75,7 +75,11 @@ to ≈ 0.045 rad (torso tilt ≈ 4.5° at rest). Waist and arms: published value
 effort limits (ankle pitch 60 N·m) still clip the torque.
 """
 KD = np.array(_LEG_KD * 2 + (5.0,) + _ARM_KD * 2)
-"""PD damping k_d per joint [N·m·s/rad], shape (27,)."""
+"""PD damping k_d per joint [N·m·s/rad], shape (27,).
+
+Legs (5, 5, 5, 8, 6, 4): the published walking damping (2.5, 2.5, 2.5, 4, 2, 2) doubled
+at the hips and knee and tripled/doubled at the ankles, with their stiffer k_p.
+"""
 
 _LEG_POSE = (0.0, -0.16, 0.0, 0.36, -0.2, 0.0)
 _LEFT_ARM_POSE = (0.2, 0.2, 0.0, 0.6, 0.0, 0.0, 0.0)

@@ -67,7 +67,10 @@ def _domain(domain_id: int, interface: str) -> None:
                     f"in this process, not {interface!r}"
                 )
             return
-        _DOMAINS[domain_id] = (interface, dds.domain.Domain(domain_id, cyclonedds_config(interface)))
+        _DOMAINS[domain_id] = (
+            interface,
+            dds.domain.Domain(domain_id, cyclonedds_config(interface)),
+        )
 
 
 @dataclass(frozen=True)

@@ -11,6 +11,7 @@ Units: joint positions ``q`` rad, velocities ``dq`` rad/s, torques ``tau`` N·m,
 """
 
 from dataclasses import dataclass
+from typing import Annotated
 
 try:
     from cyclonedds.idl import IdlStruct, types
@@ -30,10 +31,10 @@ except ImportError:  # cyclonedds is the optional extra `deploy`: plain dataclas
             cls.__idl_typename__ = typename or cls.__name__
 
     class _Array:
-        def __class_getitem__(cls, item: object) -> type:
-            return list
+        def __init__(self, subtype: object, length: int) -> None:
+            self.subtype, self.length = subtype, length
 
-    class types:  # type: ignore[no-redef]  # noqa: N801 - mirrors cyclonedds.idl.types
+    class types:  # type: ignore[no-redef]
         """Stand-in for ``cyclonedds.idl.types``: Python types of the IDL primitives."""
 
         uint8 = int
@@ -42,7 +43,7 @@ except ImportError:  # cyclonedds is the optional extra `deploy`: plain dataclas
         float32 = float
         array = _Array
 
-    class annotate:  # type: ignore[no-redef]  # noqa: N801 - mirrors cyclonedds annotations
+    class annotate:  # type: ignore[no-redef]
         """Stand-in for ``cyclonedds.idl.annotations``: no-op decorators."""
 
         @staticmethod
@@ -50,7 +51,7 @@ except ImportError:  # cyclonedds is the optional extra `deploy`: plain dataclas
             return cls
 
         @staticmethod
-        def autoid(kind: str) -> "object":
+        def autoid(kind: str) -> object:
             return lambda cls: cls
 
 
@@ -83,8 +84,8 @@ class LowCmd_(IdlStruct, typename=f"{_MODULE}.LowCmd_"):
 
     mode_pr: types.uint8
     mode_machine: types.uint8
-    motor_cmd: types.array[MotorCmd_, NUM_MOTORS]
-    reserve: types.array[types.uint32, 4]
+    motor_cmd: Annotated[list[MotorCmd_], types.array(MotorCmd_, NUM_MOTORS)]
+    reserve: Annotated[list[int], types.array(types.uint32, 4)]
     crc: types.uint32
 
 
@@ -94,10 +95,10 @@ class LowCmd_(IdlStruct, typename=f"{_MODULE}.LowCmd_"):
 class IMUState_(IdlStruct, typename=f"{_MODULE}.IMUState_"):
     """Torso IMU: quaternion (w, x, y, z), gyroscope rad/s, accelerometer m/s², rpy rad."""
 
-    quaternion: types.array[types.float32, 4]
-    gyroscope: types.array[types.float32, 3]
-    accelerometer: types.array[types.float32, 3]
-    rpy: types.array[types.float32, 3]
+    quaternion: Annotated[list[float], types.array(types.float32, 4)]
+    gyroscope: Annotated[list[float], types.array(types.float32, 3)]
+    accelerometer: Annotated[list[float], types.array(types.float32, 3)]
+    rpy: Annotated[list[float], types.array(types.float32, 3)]
     temperature: types.int16
 
 
@@ -112,11 +113,11 @@ class MotorState_(IdlStruct, typename=f"{_MODULE}.MotorState_"):
     dq: types.float32
     ddq: types.float32
     tau_est: types.float32
-    temperature: types.array[types.int16, 2]
+    temperature: Annotated[list[int], types.array(types.int16, 2)]
     vol: types.float32
-    sensor: types.array[types.uint32, 2]
+    sensor: Annotated[list[int], types.array(types.uint32, 2)]
     motorstate: types.uint32
-    reserve: types.array[types.uint32, 4]
+    reserve: Annotated[list[int], types.array(types.uint32, 4)]
 
 
 @dataclass
@@ -129,14 +130,14 @@ class LowState_(IdlStruct, typename=f"{_MODULE}.LowState_"):
     ``uint8`` arrays); ``tick`` is the robot's increasing counter.
     """
 
-    version: types.array[types.uint32, 2]
+    version: Annotated[list[int], types.array(types.uint32, 2)]
     mode_pr: types.uint8
     mode_machine: types.uint8
     tick: types.uint32
     imu_state: IMUState_
-    motor_state: types.array[MotorState_, NUM_MOTORS]
-    wireless_remote: types.array[types.uint8, 40]
-    reserve: types.array[types.uint32, 4]
+    motor_state: Annotated[list[MotorState_], types.array(MotorState_, NUM_MOTORS)]
+    wireless_remote: Annotated[bytes, types.array(types.uint8, 40)]
+    reserve: Annotated[list[int], types.array(types.uint32, 4)]
     crc: types.uint32
 
 

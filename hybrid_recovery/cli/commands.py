@@ -1,0 +1,55 @@
+"""The subcommands; each is a few lines over the library."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from hybrid_recovery.cli.main import _parse_overrides, command
+
+
+def _train(args: argparse.Namespace) -> int:
+    from hybrid_recovery.training import TrainConfig, train
+
+    cfg = TrainConfig(variant=args.variant, num_envs=args.num_envs, iterations=args.iterations,
+                      seed=args.seed, save_interval=args.save_interval,
+                      num_threads=args.threads, env_overrides=_parse_overrides(args.set))
+    cfg.ppo.symmetry = args.symmetry
+    run_dir = Path(args.run_dir or f"runs/{args.variant}")
+    train(run_dir, cfg, resume=args.resume)
+    return 0
+
+
+def _configure_train(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--variant", default="full",
+                   help="full | reduced | no_privileged | no_capture_point | no_curriculum")
+    p.add_argument("--num-envs", type=int, default=1024)
+    p.add_argument("--iterations", type=int, default=50_000,
+                   help="total PPO iterations of the run (the paper: 50,000)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--save-interval", type=int, default=50)
+    p.add_argument("--threads", type=int, default=2)
+    p.add_argument("--run-dir", default=None, help="default: runs/<variant>")
+    p.add_argument("--resume", action="store_true", help="continue the run in --run-dir")
+    p.add_argument("--symmetry", action="store_true", help="left/right mirror augmentation")
+    p.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
+                   help="EnvConfig overrides, e.g. rewards.w_cp=0 curriculum.window=256")
+
+
+_train.configure = _configure_train  # type: ignore[attr-defined]
+command("train", "Train the recovery policy with PPO (rsl-rl-lib).")(_train)
+
+
+def _demo(args: argparse.Namespace) -> int:
+    from hybrid_recovery.demo.balance_report import balance_report, print_report
+
+    print_report(balance_report(push_force=args.push), args.push)
+    return 0
+
+
+def _configure_demo(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--push", type=float, default=150.0, help="torso push force [N]")
+
+
+_demo.configure = _configure_demo  # type: ignore[attr-defined]
+command("demo", "The main job: a balance report of the H1-2 under a torso push.")(_demo)

@@ -1,0 +1,77 @@
+"""Typed training configuration (SPEC §1) and its rsl-rl-lib 5 runner dictionary."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+
+@dataclass
+class PPOConfig:
+    """PPO hyperparameters: the paper's (SPEC §1) where it gives them."""
+
+    clip_param: float = 0.2
+    gamma: float = 0.99
+    lam: float = 0.95
+    learning_rate: float = 1e-3
+    schedule: str = "adaptive"
+    desired_kl: float = 0.01
+    entropy_coef: float = 0.005
+    value_loss_coef: float = 1.0
+    num_learning_epochs: int = 5
+    num_mini_batches: int = 4
+    max_grad_norm: float = 1.0
+    use_clipped_value_loss: bool = True
+    symmetry: bool = False
+    """Left/right mirror data augmentation (rsl-rl's symmetry extension); off as in the paper."""
+
+
+@dataclass
+class TrainConfig:
+    """A training run."""
+
+    variant: str = "full"
+    """One of :data:`hybrid_recovery.training.variants.VARIANTS`."""
+    num_envs: int = 1024
+    iterations: int = 50_000
+    """PPO iterations (the paper: 50,000 on a GPU)."""
+    num_steps_per_env: int = 24
+    hidden_dims: tuple[int, ...] = (512, 256, 128)
+    activation: str = "elu"
+    init_std: float = 1.0
+    obs_normalization: bool = True
+    save_interval: int = 50
+    """Iterations between checkpoints; a kill loses at most this many."""
+    keep_checkpoints: int = 3
+    """Numbered checkpoints kept besides ``latest.pt``."""
+    seed: int = 0
+    num_threads: int = 2
+    """Physics threads and torch threads (they never run at the same time)."""
+    ppo: PPOConfig = field(default_factory=PPOConfig)
+    env_overrides: dict[str, Any] = field(default_factory=dict)
+    """Dotted EnvConfig overrides applied after the variant's."""
+
+
+def runner_dict(cfg: TrainConfig) -> dict[str, Any]:
+    """The rsl-rl-lib 5 ``OnPolicyRunner`` configuration for ``cfg``."""
+    ppo = asdict(cfg.ppo)
+    symmetry = ppo.pop("symmetry")
+    algorithm: dict[str, Any] = {"class_name": "PPO", **ppo}
+    if symmetry:
+        algorithm["symmetry_cfg"] = {
+            "use_data_augmentation": True, "use_mirror_loss": False,
+            "data_augmentation_func": "hybrid_recovery.training.symmetry:mirror_batch",
+        }
+    model = {"class_name": "MLPModel", "hidden_dims": list(cfg.hidden_dims),
+             "activation": cfg.activation, "obs_normalization": cfg.obs_normalization}
+    return {
+        "num_steps_per_env": cfg.num_steps_per_env,
+        "save_interval": cfg.save_interval,
+        "obs_groups": {"actor": ["policy"], "critic": ["critic"]},
+        "actor": {**model, "distribution_cfg": {"class_name": "GaussianDistribution",
+                                                "init_std": cfg.init_std}},
+        "critic": dict(model),
+        "algorithm": algorithm,
+        "multi_gpu": None,
+        "check_for_nan": True,
+    }

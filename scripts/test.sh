@@ -1,0 +1,6 @@
+#!/usr/bin/env bash
+# The test command of the README: lint, then the whole test suite.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+ruff check hybrid_recovery tests
+MUJOCO_GL=${MUJOCO_GL:-egl} python -m pytest -q
