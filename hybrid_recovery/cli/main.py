@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
+import pkgutil
 import sys
 from collections.abc import Callable, Sequence
 
@@ -11,7 +13,10 @@ _COMMANDS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None]]] = {}
 
 
 def command(name: str, help_text: str):
-    """Registers ``fn(args)`` as subcommand ``name``; ``fn.configure(parser)`` adds options."""
+    """Registers ``fn(args)`` as subcommand ``name``; ``fn.configure(parser)`` adds options.
+
+    Each subcommand lives in its own module ``hybrid_recovery/cli/cmd_<name>.py``.
+    """
 
     def wrap(fn):
         _COMMANDS[name] = (help_text, fn)
@@ -20,7 +25,7 @@ def command(name: str, help_text: str):
     return wrap
 
 
-def _parse_overrides(items: Sequence[str]) -> dict:
+def parse_overrides(items: Sequence[str]) -> dict:
     """``key=value`` pairs; values parsed as JSON when they can be (numbers, lists, true)."""
     out = {}
     for item in items:
@@ -34,8 +39,17 @@ def _parse_overrides(items: Sequence[str]) -> dict:
     return out
 
 
+def _register_all() -> None:
+    """Imports every ``hybrid_recovery.cli.cmd_*`` module; each registers its subcommand."""
+    import hybrid_recovery.cli as package
+
+    for info in pkgutil.iter_modules(package.__path__):
+        if info.name.startswith("cmd_"):
+            importlib.import_module(f"hybrid_recovery.cli.{info.name}")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    from hybrid_recovery.cli import commands  # noqa: F401  (registers the subcommands)
+    _register_all()
 
     parser = argparse.ArgumentParser(prog="hybrid-recovery", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)

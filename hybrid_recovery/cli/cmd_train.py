@@ -1,11 +1,11 @@
-"""The subcommands; each is a few lines over the library."""
+"""``hybrid-recovery train``."""
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
-from hybrid_recovery.cli.main import _parse_overrides, command
+from hybrid_recovery.cli.main import command, parse_overrides
 
 
 def _train(args: argparse.Namespace) -> int:
@@ -13,7 +13,7 @@ def _train(args: argparse.Namespace) -> int:
 
     cfg = TrainConfig(variant=args.variant, num_envs=args.num_envs, iterations=args.iterations,
                       seed=args.seed, save_interval=args.save_interval,
-                      num_threads=args.threads, env_overrides=_parse_overrides(args.set))
+                      num_threads=args.threads, env_overrides=parse_overrides(args.set))
     cfg.ppo.symmetry = args.symmetry
     run_dir = Path(args.run_dir or f"runs/{args.variant}")
     train(run_dir, cfg, resume=args.resume)
@@ -38,18 +38,3 @@ def _configure_train(p: argparse.ArgumentParser) -> None:
 
 _train.configure = _configure_train  # type: ignore[attr-defined]
 command("train", "Train the recovery policy with PPO (rsl-rl-lib).")(_train)
-
-
-def _demo(args: argparse.Namespace) -> int:
-    from hybrid_recovery.demo.balance_report import balance_report, print_report
-
-    print_report(balance_report(push_force=args.push), args.push)
-    return 0
-
-
-def _configure_demo(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--push", type=float, default=150.0, help="torso push force [N]")
-
-
-_demo.configure = _configure_demo  # type: ignore[attr-defined]
-command("demo", "The main job: a balance report of the H1-2 under a torso push.")(_demo)
