@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from hybrid_recovery.cli.main import command, parse_overrides
+from hybrid_recovery.cli.registry import command, parse_overrides
 
 
 def _train(args: argparse.Namespace) -> int:

@@ -4,39 +4,13 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import json
 import pkgutil
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 
-_COMMANDS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None]]] = {}
+from hybrid_recovery.cli.registry import COMMANDS, command, parse_overrides
 
-
-def command(name: str, help_text: str):
-    """Registers ``fn(args)`` as subcommand ``name``; ``fn.configure(parser)`` adds options.
-
-    Each subcommand lives in its own module ``hybrid_recovery/cli/cmd_<name>.py``.
-    """
-
-    def wrap(fn):
-        _COMMANDS[name] = (help_text, fn)
-        return fn
-
-    return wrap
-
-
-def parse_overrides(items: Sequence[str]) -> dict:
-    """``key=value`` pairs; values parsed as JSON when they can be (numbers, lists, true)."""
-    out = {}
-    for item in items:
-        if "=" not in item:
-            raise SystemExit(f"override '{item}' must look like key=value, e.g. rewards.w_cp=0")
-        key, raw = item.split("=", 1)
-        try:
-            out[key] = json.loads(raw)
-        except json.JSONDecodeError:
-            out[key] = raw
-    return out
+__all__ = ["COMMANDS", "command", "main", "parse_overrides"]
 
 
 def _register_all() -> None:
@@ -53,7 +27,7 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     parser = argparse.ArgumentParser(prog="hybrid-recovery", description=__doc__)
     sub = parser.add_subparsers(dest="command", required=True)
-    for name, (help_text, fn) in _COMMANDS.items():
+    for name, (help_text, fn) in COMMANDS.items():
         p = sub.add_parser(name, help=help_text, description=help_text)
         fn.configure(p)  # type: ignore[attr-defined]
         p.set_defaults(_run=fn)

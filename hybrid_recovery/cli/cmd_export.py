@@ -1,0 +1,25 @@
+"""``hybrid-recovery export``."""
+
+from __future__ import annotations
+
+import argparse
+
+from hybrid_recovery.cli.registry import command
+
+
+def _export(args: argparse.Namespace) -> int:
+    from hybrid_recovery.training.export import export_policy
+
+    out = export_policy(args.run_dir, args.out, args.checkpoint)
+    print(f"wrote {out / 'policy.onnx'} and {out / 'policy.json'}")
+    return 0
+
+
+def _configure(p: argparse.ArgumentParser) -> None:
+    p.add_argument("run_dir", help="training run directory")
+    p.add_argument("--out", default=None, help="output directory (default RUN_DIR/export)")
+    p.add_argument("--checkpoint", default=None, help="a checkpoint file (default latest.pt)")
+
+
+_export.configure = _configure  # type: ignore[attr-defined]
+command("export", "Export a run's policy to ONNX with its policy.json.")(_export)

@@ -1,0 +1,36 @@
+"""The subcommand registry: each ``cmd_<name>`` module registers itself here."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from collections.abc import Callable, Sequence
+
+COMMANDS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None]]] = {}
+
+
+def command(name: str, help_text: str):
+    """Registers ``fn(args)`` as subcommand ``name``; ``fn.configure(parser)`` adds options.
+
+    Each subcommand lives in its own module ``hybrid_recovery/cli/cmd_<name>.py``.
+    """
+
+    def wrap(fn):
+        COMMANDS[name] = (help_text, fn)
+        return fn
+
+    return wrap
+
+
+def parse_overrides(items: Sequence[str]) -> dict:
+    """``key=value`` pairs; values parsed as JSON when they can be (numbers, lists, true)."""
+    out = {}
+    for item in items:
+        if "=" not in item:
+            raise SystemExit(f"override '{item}' must look like key=value, e.g. rewards.w_cp=0")
+        key, raw = item.split("=", 1)
+        try:
+            out[key] = json.loads(raw)
+        except json.JSONDecodeError:
+            out[key] = raw
+    return out

@@ -1,0 +1,108 @@
+"""Export a trained actor to ONNX with a ``policy.json`` describing everything a runner needs."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import torch
+from rsl_rl.models import MLPModel
+from tensordict import TensorDict
+
+from hybrid_recovery.observation import ACTOR_OBS_DIM, ACTOR_TERMS
+from hybrid_recovery.robot import constants
+from hybrid_recovery.training.checkpoint import LATEST, check_meta, load_checkpoint
+
+POLICY_FORMAT = "hybrid_recovery.policy/1"
+"""Version tag of ``policy.json``; runners refuse other formats."""
+
+
+def actor_from_checkpoint(data: dict) -> MLPModel:
+    """Rebuilds the actor network (with its observation normaliser) from a checkpoint."""
+    train = data["infos"]["meta"]["train_config"]
+    obs = TensorDict({"policy": torch.zeros(1, ACTOR_OBS_DIM)}, batch_size=[1])
+    actor = MLPModel(obs, {"actor": ["policy"]}, "actor", constants.NUM_JOINTS,
+                     hidden_dims=list(train["hidden_dims"]), activation=train["activation"],
+                     obs_normalization=train["obs_normalization"],
+                     distribution_cfg={"class_name": "GaussianDistribution",
+                                       "init_std": train["init_std"]})
+    actor.load_state_dict(data["actor_state_dict"])
+    actor.eval()
+    return actor
+
+
+def policy_description(meta: dict, env_steps: int | None, iteration: int | None) -> dict:
+    """The ``policy.json`` content: observation layout, robot constants, PD law, provenance."""
+    env = meta["env_config"]
+    return {
+        "format": POLICY_FORMAT,
+        "observation": {"dim": ACTOR_OBS_DIM, "terms": [list(t) for t in ACTOR_TERMS],
+                        "frame": "torso IMU (angular velocity and projected gravity)",
+                        "joint_pos": "q - default_joint_pos", "scaling": "none (the "
+                        "normaliser is inside the ONNX graph)"},
+        "action": {"dim": constants.NUM_JOINTS, "scale": env["action_scale"],
+                   "target": "q_ref = default_joint_pos + scale * action"},
+        "joint_names": list(constants.JOINT_NAMES),
+        "default_joint_pos": constants.DEFAULT_JOINT_POS.tolist(),
+        "kp": constants.KP.tolist(),
+        "kd": constants.KD.tolist(),
+        "effort_limits": constants.EFFORT_LIMITS.tolist(),
+        "pd_law": "tau = kp * (q_ref - q) - kd * qdot, clipped to effort_limits",
+        "control_period_s": env["physics_dt"] * env["decimation"],
+        "delay_model_s": list(env["delay_range"]),
+        "provenance": {"variant": meta["variant"], "git_commit": meta["git_commit"],
+                       "iteration": iteration, "env_steps": env_steps},
+    }
+
+
+def export_policy(run_dir: str | Path, out_dir: str | Path | None = None,
+                  checkpoint: str | Path | None = None) -> Path:
+    """Writes ``policy.onnx`` (+ ``policy.onnx.data`` if torch splits the weights) and
+    ``policy.json`` for the newest checkpoint of ``run_dir``.
+
+    Returns:
+        The output directory.
+    """
+    run_dir = Path(run_dir)
+    data = load_checkpoint(Path(checkpoint) if checkpoint else run_dir / LATEST)
+    out = Path(out_dir) if out_dir else run_dir / "export"
+    out.mkdir(parents=True, exist_ok=True)
+    actor = actor_from_checkpoint(data)
+    onnx_model = actor.as_onnx(verbose=False)
+    onnx_model.eval()
+    torch.onnx.export(onnx_model, onnx_model.get_dummy_inputs(), str(out / "policy.onnx"),
+                      export_params=True, opset_version=18, input_names=["obs"],
+                      output_names=["actions"], dynamo=False)
+    meta = data["infos"]["meta"]
+    desc = policy_description(meta, data["infos"].get("env_steps"), data.get("iter"))
+    (out / "policy.json").write_text(json.dumps(desc, indent=2))
+    return out
+
+
+def load_policy_description(path: str | Path) -> dict:
+    """Reads a ``policy.json`` and refuses one that does not match this robot and version.
+
+    Raises:
+        FileNotFoundError: no such file.
+        ValueError: another format, other joints, another observation layout, other gains.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"policy description not found: {path}")
+    try:
+        desc = json.loads(path.read_text())
+    except json.JSONDecodeError as err:
+        raise ValueError(f"{path} is not valid JSON: {err}") from err
+    if desc.get("format") != POLICY_FORMAT:
+        raise ValueError(f"{path} has format {desc.get('format')!r}, expected {POLICY_FORMAT!r}")
+    check_meta({"joint_names": desc.get("joint_names"),
+                "actor_obs_dim": desc.get("observation", {}).get("dim")}, str(path))
+    if [list(t) for t in desc["observation"]["terms"]] != [list(t) for t in ACTOR_TERMS]:
+        raise ValueError(f"{path} observation terms {desc['observation']['terms']} differ from "
+                         f"this version's {[list(t) for t in ACTOR_TERMS]}")
+    for key, ref in (("default_joint_pos", constants.DEFAULT_JOINT_POS), ("kp", constants.KP),
+                     ("kd", constants.KD)):
+        if not np.allclose(desc[key], ref):
+            raise ValueError(f"{path} {key} differs from the robot constants")
+    return desc

@@ -1,0 +1,174 @@
+"""Training runs: save, resume (also after SIGKILL), export, ONNX parity, variants, bad files."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import onnxruntime as ort
+import pytest
+import torch
+
+from hybrid_recovery.envs import RecoveryEnv
+from hybrid_recovery.envs.rewards import CAPTURE_POINT_TERMS
+from hybrid_recovery.observation import ACTOR_OBS_DIM
+from hybrid_recovery.training import TrainConfig, load_checkpoint, train
+from hybrid_recovery.training.export import (
+    actor_from_checkpoint,
+    export_policy,
+    load_policy_description,
+)
+from hybrid_recovery.training.runner import make_env_config
+from hybrid_recovery.training.variants import VARIANTS
+
+FAST = {"curriculum.window": 8, "curriculum.advance_success": 0.0}
+
+
+def _cfg(**kw) -> TrainConfig:
+    cfg = TrainConfig(num_envs=8, iterations=2, save_interval=1, num_threads=1,
+                      env_overrides=dict(FAST))
+    for key, value in kw.items():
+        setattr(cfg, key, value)
+    return cfg
+
+
+@pytest.fixture(scope="module")
+def trained_run(tmp_path_factory):
+    run = tmp_path_factory.mktemp("run")
+    runner = train(run, _cfg())
+    return run, runner
+
+
+def test_run_directory_contents(trained_run):
+    run, runner = trained_run
+    assert (run / "latest.pt").is_file() and (run / "config.json").is_file()
+    meta = json.loads((run / "config.json").read_text())
+    assert meta["variant"] == "full" and meta["critic_obs_dim"] == 104
+    assert len(meta["git_commit"]) in (40, 7) or meta["git_commit"] == "unknown"
+    assert any(run.glob("events.out.tfevents*"))
+    data = load_checkpoint(run / "latest.pt")
+    assert data["iter"] == 1
+    assert "stage" in data["infos"]["curriculum"]
+
+
+def test_resume_continues_iteration_and_curriculum(trained_run):
+    run, runner = trained_run
+    saved = load_checkpoint(run / "latest.pt")
+    resumed = train(run, _cfg(iterations=3), resume=True)
+    assert resumed.current_learning_iteration == 2
+    assert load_checkpoint(run / "latest.pt")["iter"] == 2
+    # the curriculum continued from the saved state (it can only have advanced)
+    before, after = saved["infos"]["curriculum"], resumed.env.curriculum.state_dict()
+    assert (after["stage"], after["level"]) >= (before["stage"], before["level"])
+
+
+def test_export_onnx_matches_torch(trained_run, tmp_path):
+    run, _ = trained_run
+    out = export_policy(run, tmp_path / "export")
+    desc = load_policy_description(out / "policy.json")
+    assert desc["observation"]["dim"] == ACTOR_OBS_DIM and desc["action"]["scale"] == 0.3
+    actor = actor_from_checkpoint(load_checkpoint(run / "latest.pt"))
+    session = ort.InferenceSession(str(out / "policy.onnx"))
+    obs = np.random.default_rng(0).normal(size=(1, ACTOR_OBS_DIM)).astype(np.float32) * 3
+    onnx_act = session.run(["actions"], {"obs": obs})[0]
+    from tensordict import TensorDict
+
+    with torch.no_grad():
+        torch_act = actor(TensorDict({"policy": torch.from_numpy(obs)}, batch_size=[1]),
+                          stochastic_output=False).numpy()
+    np.testing.assert_allclose(onnx_act, torch_act, atol=1e-5)
+
+
+def test_corrupt_and_foreign_checkpoints_are_refused(trained_run, tmp_path):
+    run, _ = trained_run
+    bad = tmp_path / "bad.pt"
+    bad.write_bytes((run / "latest.pt").read_bytes()[:1000])
+    with pytest.raises(ValueError, match="is corrupt or not a torch checkpoint"):
+        load_checkpoint(bad)
+    with pytest.raises(FileNotFoundError, match="checkpoint not found"):
+        load_checkpoint(tmp_path / "none.pt")
+    foreign = tmp_path / "foreign.pt"
+    torch.save({"actor_state_dict": {}}, foreign)
+    with pytest.raises(ValueError, match="was not written by hybrid_recovery"):
+        load_checkpoint(foreign)
+    data = torch.load(run / "latest.pt", weights_only=False)
+    data["infos"]["meta"]["joint_names"] = ["a"] * 27
+    torch.save(data, tmp_path / "other_robot.pt")
+    with pytest.raises(ValueError, match="was trained for joints"):
+        load_checkpoint(tmp_path / "other_robot.pt")
+    data["infos"]["meta"]["joint_names"] = load_checkpoint(run / "latest.pt")["infos"]["meta"][
+        "joint_names"]
+    data["infos"]["meta"]["actor_obs_dim"] = 90
+    torch.save(data, tmp_path / "other_obs.pt")
+    with pytest.raises(ValueError, match="expects an actor observation of 90 entries"):
+        load_checkpoint(tmp_path / "other_obs.pt")
+
+
+def test_policy_json_mismatch_is_refused(trained_run, tmp_path):
+    run, _ = trained_run
+    out = export_policy(run, tmp_path / "export")
+    desc = json.loads((out / "policy.json").read_text())
+    desc["kp"][0] += 1.0
+    (out / "policy.json").write_text(json.dumps(desc))
+    with pytest.raises(ValueError, match="kp differs from the robot constants"):
+        load_policy_description(out / "policy.json")
+
+
+@pytest.mark.parametrize("variant", sorted(VARIANTS))
+def test_variants_set_critic_width_and_rewards(variant):
+    env_cfg = make_env_config(TrainConfig(variant=variant, num_envs=2, num_threads=1))
+    env = RecoveryEnv(env_cfg)
+    obs = env.get_observations()
+    privileged = variant not in ("reduced", "no_privileged")
+    assert obs["critic"].shape[1] == (104 if privileged else 87)
+    assert obs["policy"].shape[1] == 87
+    _, _, _, extras = env.step(torch.zeros(2, 27))
+    for _ in range(200):
+        _, _, done, extras = env.step(torch.zeros(2, 27))
+        if done.any():
+            break
+    terms = {k.split("/", 1)[1] for k in extras["log"] if k.startswith("reward/")}
+    with_cp = variant not in ("reduced", "no_capture_point")
+    assert set(CAPTURE_POINT_TERMS) <= terms if with_cp else not set(CAPTURE_POINT_TERMS) & terms
+    curriculum = variant not in ("reduced", "no_curriculum")
+    assert env.curriculum.stage == (1 if curriculum else 3)
+
+
+def test_unknown_variant_and_config_key():
+    with pytest.raises(KeyError, match="unknown variant 'nope'"):
+        make_env_config(TrainConfig(variant="nope"))
+    with pytest.raises(KeyError, match="unknown config key 'rewards.w_nope'"):
+        make_env_config(TrainConfig(env_overrides={"rewards.w_nope": 1.0}))
+
+
+def test_sigkill_then_resume_loses_at_most_one_interval(tmp_path):
+    run = tmp_path / "killed"
+    cmd = [sys.executable, "-m", "hybrid_recovery.cli.main", "train", "--num-envs", "8",
+           "--iterations", "1000", "--save-interval", "1", "--threads", "1",
+           "--run-dir", str(run), "--set"] + [f"{k}={v}" for k, v in FAST.items()]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                            start_new_session=True)
+    deadline = time.time() + 120
+    try:
+        while time.time() < deadline:
+            if (run / "latest.pt").is_file() and load_checkpoint(run / "latest.pt")["iter"] >= 2:
+                break
+            assert proc.poll() is None, proc.stderr.read().decode()[-2000:]
+            time.sleep(0.2)
+        else:
+            pytest.fail("training wrote no checkpoint at iteration 2 within 120 s")
+    finally:
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+    saved = load_checkpoint(run / "latest.pt")  # never a partial file, even after SIGKILL
+    assert not list(run.glob(".*.tmp")) or all(p.stat().st_size >= 0 for p in run.glob(".*.tmp"))
+    resumed = train(run, _cfg(iterations=saved["iter"] + 2), resume=True)
+    assert resumed.current_learning_iteration == saved["iter"] + 1
+    state = saved["infos"]["curriculum"]
+    after = resumed.env.curriculum.state_dict()
+    assert (after["stage"], after["level"]) >= (state["stage"], state["level"])
