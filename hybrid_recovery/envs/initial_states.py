@@ -72,7 +72,8 @@ def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def lowest_point(model: mujoco.MjModel, geom_xpos: np.ndarray, geom_xmat: np.ndarray,
                  geoms: np.ndarray) -> np.ndarray:
-    """Lowest z over the given collision geoms (spheres, capsules, boxes).
+    """Lowest z over the given collision geoms (exact for spheres, capsules and boxes; the
+    bounding sphere for other shapes such as meshes).
 
     Args:
         model: the model (sizes and types of the geoms).
@@ -90,8 +91,9 @@ def lowest_point(model: mujoco.MjModel, geom_xpos: np.ndarray, geom_xmat: np.nda
     box = np.sum(np.abs(z_axis) * size, -1)
     capsule = np.abs(z_axis[..., 2]) * size[:, 1] + size[:, 0]
     sphere = np.broadcast_to(size[:, 0], box.shape)
-    extent = np.where(gtype == mujoco.mjtGeom.mjGEOM_BOX, box,
-                      np.where(gtype == mujoco.mjtGeom.mjGEOM_CAPSULE, capsule, sphere))
+    other = np.broadcast_to(model.geom_rbound[geoms], box.shape)  # meshes: bounding sphere
+    extent = np.select([gtype == mujoco.mjtGeom.mjGEOM_BOX, gtype == mujoco.mjtGeom.mjGEOM_CAPSULE,
+                        gtype == mujoco.mjtGeom.mjGEOM_SPHERE], [box, capsule, sphere], other)
     return np.min(pos[..., 2] - extent, axis=1)
 
 
@@ -141,3 +143,36 @@ def seat_on_ground(model: mujoco.MjModel, sims: mjbatch.Batch, ids: np.ndarray,
                        robot_geoms(model))
     qpos = sims.bind("qpos")
     qpos[ids, 2] += clearance - low
+
+
+def perturb_start(qpos: np.ndarray, rng: np.random.Generator, base_pos: float, base_rot: float,
+                  joint_pos: float, qadr: np.ndarray, joint_range: np.ndarray) -> np.ndarray:
+    """The paper's initialisation noise on settled states, plus a uniform random heading.
+
+    Args:
+        qpos: settled states, shape (n, nq).
+        base_pos: horizontal base offset half-width [m].
+        base_rot: roll/pitch/yaw noise half-width [rad].
+        joint_pos: joint offset half-width [rad] (clipped to the joint ranges).
+        qadr: qpos addresses of the 27 joints; joint_range: their ranges, (27, 2).
+
+    Returns:
+        Perturbed states, shape (n, nq) (heights are fixed by :func:`seat_on_ground`).
+    """
+    qpos = np.array(qpos, dtype=float, copy=True)
+    n = len(qpos)
+    qpos[:, :2] += rng.uniform(-base_pos, base_pos, (n, 2))
+    rpy = rng.uniform(-base_rot, base_rot, (n, 3))
+    turn = quat_from_euler(rpy[:, 0], rpy[:, 1], rpy[:, 2] + rng.uniform(-np.pi, np.pi, n))
+    qpos[:, 3:7] = quat_mul(turn, qpos[:, 3:7])
+    joints = qpos[:, qadr] + rng.uniform(-joint_pos, joint_pos, (n, len(qadr)))
+    qpos[:, qadr] = np.clip(joints, joint_range[:, 0], joint_range[:, 1])
+    return qpos
+
+
+def seat_single(model: mujoco.MjModel, data: mujoco.MjData, clearance: float = 0.005) -> None:
+    """:func:`seat_on_ground` for one ``MjData``."""
+    mujoco.mj_kinematics(model, data)
+    low = lowest_point(model, data.geom_xpos[None], data.geom_xmat.reshape(1, -1, 9),
+                       robot_geoms(model))[0]
+    data.qpos[2] += clearance - low

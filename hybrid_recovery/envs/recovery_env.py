@@ -25,8 +25,7 @@ from hybrid_recovery.envs.curriculum import Curriculum
 from hybrid_recovery.envs.domain_rand import Randomizer
 from hybrid_recovery.envs.initial_states import (
     POSES,
-    quat_from_euler,
-    quat_mul,
+    perturb_start,
     seat_on_ground,
     settle_pool,
 )
@@ -279,14 +278,8 @@ class RecoveryEnv(VecEnv):
             if len(rows):
                 pool = self.pool[name][0]
                 qpos[rows] = pool[rng.integers(len(pool), size=len(rows))]
-        qpos[:, :2] += rng.uniform(-dr.init_base_pos, dr.init_base_pos, (n, 2))
-        rpy = rng.uniform(-dr.init_base_rot, dr.init_base_rot, (n, 3))
-        turn = quat_from_euler(rpy[:, 0], rpy[:, 1], rpy[:, 2] + rng.uniform(-np.pi, np.pi, n))
-        qpos[:, 3:7] = quat_mul(turn, qpos[:, 3:7])
-        lo, hi = self.model.jnt_range[1:1 + self.num_actions].T
-        joints = qpos[:, self.qadr] + rng.uniform(-dr.init_joint_pos, dr.init_joint_pos,
-                                                  (n, self.num_actions))
-        qpos[:, self.qadr] = np.clip(joints, lo, hi)
+        qpos = perturb_start(qpos, rng, dr.init_base_pos, dr.init_base_rot, dr.init_joint_pos,
+                             self.qadr, self.model.jnt_range[1:1 + self.num_actions])
         self.sims.reset(ids, stage=mujoco.mjtStage.mjSTAGE_NONE)
         self.qpos[ids] = qpos
         self.qvel[ids] = 0.0

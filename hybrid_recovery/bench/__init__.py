@@ -1,0 +1,20 @@
+"""Benchmarks behind ``hybrid-recovery bench <what>``: one module per target.
+
+Every target is a function ``run_<what>_bench(n=..., repeat=..., seed=...)`` returning a
+:class:`BenchResult`; the CLI passes only the options given on its command line, so each
+target keeps its own defaults (``n`` is the problem size: states, envs, ...).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from hybrid_recovery.bench.dynamics import run_dynamics_bench
+from hybrid_recovery.bench.result import BenchResult
+
+BENCHES: dict[str, Callable[..., BenchResult]] = {
+    "dynamics": run_dynamics_bench,
+}
+"""Bench targets by name, the choices of ``hybrid-recovery bench``."""
+
+__all__ = ["BENCHES", "BenchResult", "run_dynamics_bench"]

@@ -1,0 +1,31 @@
+"""``hybrid-recovery bench``."""
+
+from __future__ import annotations
+
+import argparse
+
+from hybrid_recovery.cli.main import command
+
+
+def _bench(args: argparse.Namespace) -> int:
+    from hybrid_recovery.bench import BENCHES
+
+    options = {"n": args.n, "repeat": args.repeat, "seed": args.seed}
+    result = BENCHES[args.what](**{k: v for k, v in options.items() if v is not None})
+    print(result.table())
+    print(result.json_line())
+    return 0
+
+
+def _configure_bench(p: argparse.ArgumentParser) -> None:
+    from hybrid_recovery.bench import BENCHES
+
+    p.add_argument("what", choices=sorted(BENCHES), help="what to time")
+    p.add_argument("-n", type=int, default=None,
+                   help="problem size, e.g. number of states (default: the bench's own)")
+    p.add_argument("--repeat", type=int, default=None, help="timed runs, the best is kept")
+    p.add_argument("--seed", type=int, default=None)
+
+
+_bench.configure = _configure_bench  # type: ignore[attr-defined]
+command("bench", "Time a layer: µs per state and ratios; the last line is JSON.")(_bench)

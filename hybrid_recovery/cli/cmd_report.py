@@ -1,0 +1,39 @@
+"""``hybrid-recovery report``."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from hybrid_recovery.cli.registry import command
+
+
+def _report(args: argparse.Namespace) -> int:
+    from hybrid_recovery.evaluation.ablation import ablation_table
+    from hybrid_recovery.evaluation.report import write_report
+    from hybrid_recovery.evaluation.runner import load_results
+
+    results = {}
+    for path in args.results:
+        rows = load_results(path)
+        header = next((r for r in rows if r.get("key") == "__header__"), {})
+        label = f"{header.get('controller', Path(path).parent.name)} ({Path(path).parent.name})"
+        results[label] = [r for r in rows if r.get("key") != "__header__"]
+    runs = dict(item.split("=", 1) if "=" in item else (Path(item).name, item)
+                for item in args.runs)
+    table = ablation_table(runs) if runs else None
+    print(write_report(results, args.out, args.title, ablation=table))
+    return 0
+
+
+def _configure(p: argparse.ArgumentParser) -> None:
+    p.add_argument("results", nargs="*", help="results.jsonl files from eval/compare")
+    p.add_argument("--runs", nargs="*", default=[], metavar="[LABEL=]RUN_DIR",
+                   help="training runs for the ablation table")
+    p.add_argument("--out", default="results/report")
+    p.add_argument("--title", default="hybrid_recovery evaluation")
+
+
+_report.configure = _configure  # type: ignore[attr-defined]
+command("report", "Write a Markdown report with figures from results and training runs.")(
+    _report)

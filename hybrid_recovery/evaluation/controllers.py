@@ -1,0 +1,109 @@
+"""Controllers under evaluation: ``zero``, ``onnx:PATH``, ``qp``, ``hybrid:PATH``.
+
+A controller is called once per physics step with the MuJoCo model and data and returns
+the actuator controls (position targets [rad] for position actuators, or torques [N·m]
+for a torque-controlled model). ``physics_dt`` and ``torque_control`` tell the trial
+runner which model to build.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from hybrid_recovery.observation import actor_observation
+from hybrid_recovery.observation.mujoco_source import ProprioceptionMap, read_proprioception
+from hybrid_recovery.robot import constants
+
+
+class ZeroController:
+    """Zero actions: PD targets at the default pose (the policy's action origin)."""
+
+    name = "zero"
+    physics_dt = 0.005
+    torque_control = False
+
+    def reset(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        del model, data
+
+    def __call__(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+        return constants.DEFAULT_JOINT_POS
+
+    def info(self) -> dict:
+        return {}
+
+
+class OnnxPolicyController:
+    """An exported policy at 50 Hz: shared observation builder, targets q* + s·a, delay.
+
+    Args:
+        path: ``policy.onnx`` or the directory holding it and ``policy.json``.
+        delay: actuation delay applied to the targets [s] (training sampled 10–40 ms).
+    """
+
+    torque_control = False
+    physics_dt = 0.005
+
+    def __init__(self, path: str | Path, delay: float = 0.02) -> None:
+        import onnxruntime as ort
+
+        from hybrid_recovery.training.export import load_policy_description
+
+        path = Path(path)
+        onnx_path = path / "policy.onnx" if path.is_dir() else path
+        desc = load_policy_description(onnx_path.with_name("policy.json"))
+        options = ort.SessionOptions()
+        options.intra_op_num_threads = 1
+        self.session = ort.InferenceSession(str(onnx_path), options)
+        self.scale = float(desc["action"]["scale"])
+        self.period = float(desc["control_period_s"])
+        self.delay = delay
+        self.name = f"onnx:{onnx_path}"
+
+    def reset(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        self.where = ProprioceptionMap.of(model)
+        self.decimation = max(1, int(round(self.period / model.opt.timestep)))
+        self.delay_steps = int(round(self.delay / model.opt.timestep))
+        self.step = 0
+        self.last_action = np.zeros(constants.NUM_JOINTS)
+        start = data.qpos[self.where.qadr].copy()
+        self.pending: deque[tuple[int, np.ndarray]] = deque([(-1, start)])
+        self.target = start
+
+    def __call__(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+        if self.step % self.decimation == 0:
+            gyro, quat, q, dq = read_proprioception(model, data, self.where)
+            obs = actor_observation(gyro[None], quat[None], q[None], dq[None],
+                                    self.last_action[None])
+            action = self.session.run(["actions"], {"obs": obs})[0][0].astype(float)
+            self.last_action = action
+            self.pending.append((self.step + self.delay_steps,
+                                 constants.DEFAULT_JOINT_POS + self.scale * action))
+        while self.pending and self.pending[0][0] <= self.step:
+            self.target = self.pending.popleft()[1]
+        self.step += 1
+        return self.target
+
+    def info(self) -> dict:
+        return {}
+
+
+def make_controller(spec: str):
+    """Builds a controller from ``zero``, ``onnx:PATH``, ``qp`` or ``hybrid:PATH``."""
+    kind, _, arg = spec.partition(":")
+    if kind == "zero":
+        return ZeroController()
+    if kind == "onnx":
+        if not arg:
+            raise ValueError("onnx controller needs a path: onnx:PATH")
+        return OnnxPolicyController(arg)
+    if kind in ("qp", "hybrid"):
+        try:
+            from hybrid_recovery.control import eval_controller
+        except ImportError as err:
+            raise ValueError(f"controller '{kind}' is not available: {err}") from err
+        return eval_controller(kind, arg or None)
+    raise ValueError(f"unknown controller '{spec}': use zero, onnx:PATH, qp or hybrid:PATH")

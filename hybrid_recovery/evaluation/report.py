@@ -1,0 +1,214 @@
+"""Markdown reports with the paper's figures (SPEC §7) from evaluation results."""
+
+from __future__ import annotations
+
+import json
+from collections import Counter, defaultdict
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from hybrid_recovery.dynamics.support import support_polygon  # noqa: E402
+from hybrid_recovery.evaluation.scenario import SWEEP_DIRECTIONS  # noqa: E402
+from hybrid_recovery.evaluation.success import wilson_interval  # noqa: E402
+
+_DIRECTION_NAMES = {round(v, 4): k for k, v in SWEEP_DIRECTIONS.items()}
+
+
+def _rate(rows: list[dict]) -> tuple[float, float, float, int]:
+    n = len(rows)
+    k = sum(r["success"] for r in rows)
+    lo, hi = wilson_interval(k, n)
+    return (k / n if n else float("nan"), lo, hi, n)
+
+
+def _group(rows: list[dict], *keys: str) -> dict[tuple, list[dict]]:
+    out: dict[tuple, list[dict]] = defaultdict(list)
+    for r in rows:
+        out[tuple(r[k] for k in keys)].append(r)
+    return dict(sorted(out.items()))
+
+
+def summary_table(rows: list[dict], by: str = "pose") -> str:
+    """Markdown table: success rate with 95 % CI and recovery times, per ``by``."""
+    lines = [f"| {by} | trials | success | 95 % CI | mean t_rec [s] | median t_rec [s] | "
+             "falls |", "|---|---|---|---|---|---|---|"]
+    for (value,), group in _group(rows, by).items():
+        rate, lo, hi, n = _rate(group)
+        times = [r["recovery_time"] for r in group if r["success"]]
+        mean = f"{np.mean(times):.2f}" if times else "–"
+        median = f"{np.median(times):.2f}" if times else "–"
+        falls = sum(r["fell"] for r in group)
+        lines.append(f"| {value} | {n} | {rate:.1%} | [{lo:.1%}, {hi:.1%}] | {mean} | {median} "
+                     f"| {falls} |")
+    return "\n".join(lines)
+
+
+def strategy_table(rows: list[dict]) -> str:
+    """Markdown table of the push hierarchy: force × direction → success and strategy."""
+    directions = sorted({round(r["direction"], 4) for r in rows})
+    names = [_DIRECTION_NAMES.get(d, f"{d:.2f} rad") for d in directions]
+    lines = ["| force [N] | " + " | ".join(names) + " |", "|---" * (len(names) + 1) + "|"]
+    for (force,), group in _group(rows, "force").items():
+        cells = []
+        for d in directions:
+            sub = [r for r in group if round(r["direction"], 4) == d]
+            if not sub:
+                cells.append("–")
+                continue
+            rate = _rate(sub)[0]
+            label = Counter(r["strategy"] for r in sub).most_common(1)[0][0]
+            cells.append(f"{rate:.0%} {label}")
+        lines.append(f"| {force:g} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def _plot_lines(rows, x_key, y_fn, ylabel, title, path, x_label):
+    fig, ax = plt.subplots(figsize=(5.5, 3.6))
+    for (pose,), group in _group(rows, "pose").items():
+        xs, ys = [], []
+        for (x,), sub in _group(group, x_key).items():
+            y = y_fn(sub)
+            if y is not None:
+                xs.append(x)
+                ys.append(y)
+        ax.plot(xs, ys, marker="o", label=pose)
+    ax.set_xlabel(x_label)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def _mean_time(rows):
+    times = [r["recovery_time"] for r in rows if r["success"]]
+    return float(np.mean(times)) if times else None
+
+
+def sweep_figures(rows: list[dict], out: Path, prefix: str = "") -> list[tuple[str, str]]:
+    """The paper's Fig. 4 panels (A–F) as PNGs; returns (caption, file name) pairs."""
+    figs = []
+    unpushed = [r for r in rows if r["force"] == 0]
+    if unpushed:
+        fig, ax = plt.subplots(figsize=(5.5, 3.2))
+        groups = _group(unpushed, "pose")
+        rates = [_rate(g) for g in groups.values()]
+        ax.bar([p for (p,) in groups], [r[0] for r in rates],
+               yerr=np.array([[r[0] - r[1] for r in rates], [r[2] - r[0] for r in rates]]),
+               capsize=4)
+        ax.set_ylim(0, 1.05)
+        ax.set_ylabel("success rate")
+        ax.set_title("(A) recovery without push")
+        fig.tight_layout()
+        name = f"{prefix}A_no_push.png"
+        fig.savefig(out / name, dpi=110)
+        plt.close(fig)
+        figs.append(("(A) success without push, per pose (95 % CI)", name))
+    panels = [
+        ("force", lambda g: _rate(g)[0], "success rate", "(B–C) success vs force", "BC_force",
+         "push force [N]"),
+        ("force", _mean_time, "mean recovery time [s]", "(D) recovery time vs force",
+         "D_time", "push force [N]"),
+        ("height", lambda g: _rate(g)[0], "success rate", "(F) push height sensitivity",
+         "F_height", "push height above CoM [m]"),
+    ]
+    pushed = [r for r in rows if r["force"] > 0] or rows
+    for key, fn, ylabel, title, stem, xlabel in panels:
+        source = rows if key == "force" else pushed
+        name = f"{prefix}{stem}.png"
+        _plot_lines(source, key, fn, ylabel, title, out / name, xlabel)
+        figs.append((title, name))
+    fig, ax = plt.subplots(figsize=(5.5, 3.6))
+    poses = list(_group(pushed, "pose"))
+    directions = sorted({round(r["direction"], 4) for r in pushed})
+    width = 0.8 / max(len(directions), 1)
+    for j, d in enumerate(directions):
+        vals = [_rate([r for r in pushed if r["pose"] == p and round(r["direction"], 4) == d]
+                      or [{"success": False}])[0] for (p,) in poses]
+        ax.bar(np.arange(len(poses)) + j * width, vals, width,
+               label=_DIRECTION_NAMES.get(d, f"{d:.2f}"))
+    ax.set_xticks(np.arange(len(poses)) + 0.4 - width / 2, [p for (p,) in poses])
+    ax.set_ylabel("success rate")
+    ax.set_title("(E) push direction sensitivity")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    name = f"{prefix}E_direction.png"
+    fig.savefig(out / name, dpi=110)
+    plt.close(fig)
+    figs.append(("(E) push direction sensitivity", name))
+    return figs
+
+
+def capture_point_figure(trace: dict, push_time: float, path: Path, title: str = "") -> None:
+    """ξ over time with the active foot support polygons (the paper's Fig. 3)."""
+    fig, ax = plt.subplots(figsize=(5, 5))
+    t, cp, com = trace["t"], trace["cp"], trace["com"]
+    feet = trace["feet_xy"]  # (T, 2, 4, 2), NaN where no contact
+    for k in range(0, len(t), max(1, len(t) // 12)):
+        for foot in range(2):
+            pts = feet[k, foot][~np.isnan(feet[k, foot, :, 0])]
+            if len(pts):
+                poly = support_polygon(pts)
+                closed = np.vstack([poly, poly[:1]])
+                ax.plot(closed[:, 0], closed[:, 1], color="0.6", lw=0.8)
+    sc = ax.scatter(cp[:, 0], cp[:, 1], c=t, cmap="viridis", s=10, label="capture point ξ")
+    ax.plot(com[:, 0], com[:, 1], color="tab:red", lw=1, label="CoM projection")
+    k0 = int(np.searchsorted(t, push_time))
+    if k0 < len(t):
+        ax.scatter(*cp[k0], marker="x", color="k", s=60, label="push")
+    fig.colorbar(sc, ax=ax, label="t [s]")
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_title(title or "capture point and foot support polygons")
+    ax.legend(fontsize=8, loc="best")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def write_report(results: dict[str, list[dict]], out_dir: str | Path, title: str,
+                 cp_traces: dict[str, tuple[dict, float]] | None = None,
+                 ablation: str | None = None, notes: str = "") -> Path:
+    """Writes ``report.md`` and its PNGs for one or more controllers' results.
+
+    Args:
+        results: controller label → result rows.
+        out_dir: output directory.
+        title: report title.
+        cp_traces: controller label → (recorded trace, push time) for the CP figure.
+        ablation: a Markdown ablation table to include.
+        notes: Markdown paragraphs placed after the title.
+    """
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    md = [f"# {title}", "", notes, ""]
+    for label, rows in results.items():
+        safe = "".join(ch if ch.isalnum() else "_" for ch in label)[:40]
+        md += [f"## {label}", "", summary_table(rows), ""]
+        pushed = [r for r in rows if r["force"] > 0]
+        if pushed and len({r["pose"] for r in rows}) == 1:
+            md += ["Push hierarchy (success and most frequent strategy):", "",
+                   strategy_table(pushed), ""]
+        if len({r["force"] for r in rows}) > 1:
+            for caption, name in sweep_figures(rows, out, prefix=f"{safe}_"):
+                md += [f"![{caption}]({name})", ""]
+        if cp_traces and label in cp_traces:
+            name = f"{safe}_capture_point.png"
+            trace, push_time = cp_traces[label]
+            capture_point_figure(trace, push_time, out / name, f"{label}: capture point")
+            md += [f"![capture point evolution]({name})", ""]
+    if ablation:
+        md += ["## Ablation", "", ablation, ""]
+    (out / "report.md").write_text("\n".join(md))
+    (out / "results.json").write_text(json.dumps(
+        {k: [{kk: vv for kk, vv in r.items() if kk != "trace"} for r in v]
+         for k, v in results.items()}, default=str))
+    return out / "report.md"

@@ -1,0 +1,101 @@
+"""Running a protocol: parallel over processes, resumable, results as JSON lines."""
+
+from __future__ import annotations
+
+import json
+import multiprocessing as mp
+import sys
+import time
+from pathlib import Path
+
+from hybrid_recovery.evaluation.controllers import make_controller
+from hybrid_recovery.evaluation.scenario import Scenario
+from hybrid_recovery.evaluation.trial import run_trial
+
+_WORKER: dict = {}
+
+
+def _init_worker(controller: str, model_path: str | None, contact: str) -> None:
+    _WORKER.update(controller=make_controller(controller), model=model_path, contact=contact)
+
+
+def _work(scenario: Scenario) -> dict:
+    return run_trial(_WORKER["controller"], scenario, _WORKER["model"], _WORKER["contact"])
+
+
+def completed_keys(results: Path) -> set[str]:
+    """Keys of the trials already in ``results`` (a torn last line is ignored)."""
+    if not results.is_file():
+        return set()
+    keys = set()
+    for line in results.read_text().splitlines():
+        try:
+            keys.add(json.loads(line)["key"])
+        except (json.JSONDecodeError, KeyError):
+            continue
+    return keys
+
+
+def load_results(results: str | Path) -> list[dict]:
+    """All complete result rows of a JSON-lines results file."""
+    rows = []
+    for line in Path(results).read_text().splitlines():
+        try:
+            rows.append(json.loads(line))
+        except json.JSONDecodeError:
+            continue
+    return rows
+
+
+def run_protocol(scenarios: list[Scenario], controller: str, results: str | Path,
+                 model_path: str | None = None, contact: str = "default", workers: int = 2,
+                 header: dict | None = None, progress: bool = True) -> list[dict]:
+    """Runs every scenario not yet in ``results`` and appends one JSON line per trial.
+
+    A killed run resumes where it stopped: finished trials are skipped by key. The first
+    line of a new file is a header with the protocol's configuration and seed.
+
+    Returns:
+        All result rows of the file (old and new).
+    """
+    results = Path(results)
+    results.parent.mkdir(parents=True, exist_ok=True)
+    make_controller(controller)  # fail fast on a bad spec, before forking
+    done = completed_keys(results)
+    todo = [s for s in scenarios if s.key not in done]
+    if not results.is_file():
+        meta = {"key": "__header__", "controller": controller, "model": model_path,
+                "contact": contact, **(header or {})}
+        results.write_text(json.dumps(meta) + "\n")
+    start, count, shown = time.time(), 0, 0.0
+    with results.open("a") as out:
+        if workers <= 1:
+            _init_worker(controller, model_path, contact)
+            rows = map(_work, todo)
+            pool = None
+        else:
+            pool = mp.get_context("fork").Pool(workers, _init_worker,
+                                               (controller, model_path, contact))
+            rows = pool.imap_unordered(_work, todo)
+        try:
+            for row in rows:
+                out.write(json.dumps(row) + "\n")
+                out.flush()
+                count += 1
+                if progress and (time.time() - shown > 1.0 or count == len(todo)):
+                    _progress(count, len(todo), start, len(done))
+                    shown = time.time()
+        finally:
+            if pool is not None:
+                pool.terminate()
+    if progress and todo:
+        print(file=sys.stderr)
+    return [r for r in load_results(results) if r.get("key") != "__header__"]
+
+
+def _progress(count: int, total: int, start: float, skipped: int) -> None:
+    rate = count / max(time.time() - start, 1e-9)
+    eta = (total - count) / max(rate, 1e-9)
+    bar = "#" * int(30 * count / max(total, 1))
+    print(f"\r[{bar:<30}] {count}/{total} trials ({skipped} resumed) {rate:.1f}/s "
+          f"ETA {eta:5.0f}s", end="", file=sys.stderr, flush=True)

@@ -1,0 +1,179 @@
+"""One evaluation trial in plain MuJoCo: start pose, torso push, controller, measurements."""
+
+from __future__ import annotations
+
+import functools
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from hybrid_recovery.dynamics.capturability import capture_point
+from hybrid_recovery.envs.config import DomainRandConfig
+from hybrid_recovery.envs.initial_states import perturb_start, seat_single, settle_pool
+from hybrid_recovery.evaluation.contact import apply_contact_preset
+from hybrid_recovery.evaluation.scenario import Scenario, check_pose
+from hybrid_recovery.evaluation.strategy import CONTACT_BODIES, label_strategy
+from hybrid_recovery.evaluation.success import recovery_time
+from hybrid_recovery.observation import projected_gravity
+from hybrid_recovery.robot import constants
+from hybrid_recovery.robot.mjcf import load_mjmodel
+
+RECORD_DT = 0.02
+"""Sampling period of the recorded trace [s] (50 Hz, the control rate)."""
+POOL_SIZE = 8
+"""Settled start states per pose and model."""
+
+
+@functools.lru_cache(maxsize=4)
+def eval_model(model_path: str | None, timestep: float, torque_control: bool,
+               contact: str) -> mujoco.MjModel:
+    """The evaluation model (cached per process): robot, floor, actuators, contact preset."""
+    if torque_control:
+        from hybrid_recovery.control import torque_model
+
+        model = torque_model(model_path, timestep=timestep)
+    else:
+        model = load_mjmodel(model_path, timestep=timestep)
+    apply_contact_preset(model, contact)
+    return model
+
+
+def physics_step(controller, model_path: str | None) -> float:
+    """The controller's physics step; at most 1 ms on another model (the reference mesh
+    model has no joint armature and needs the finer step to stay stable)."""
+    return controller.physics_dt if model_path is None else min(controller.physics_dt, 0.001)
+
+
+@functools.lru_cache(maxsize=4)
+def _pool(model_path: str | None, contact: str, timestep: float) -> dict:
+    model = eval_model(model_path, timestep, False, contact)
+    return settle_pool(model, POOL_SIZE, np.random.default_rng(12345), nthread=1)
+
+
+def start_state(scenario: Scenario, model_path: str | None, contact: str,
+                timestep: float = 0.005) -> np.ndarray:
+    """The trial's initial qpos: a settled state of the pose with the paper's
+    initialisation noise scaled by ``scenario.noise``."""
+    check_pose(scenario.pose)
+    model = eval_model(model_path, timestep, False, contact)
+    pool = _pool(model_path, contact, timestep)[scenario.pose][0]
+    rng = np.random.default_rng(scenario.seed)
+    dr, k = DomainRandConfig(), scenario.noise
+    qadr = model.jnt_qposadr[1:1 + constants.NUM_JOINTS]
+    start = pool[rng.integers(len(pool))][None]
+    return perturb_start(start, rng, k * dr.init_base_pos, k * dr.init_base_rot,
+                         k * dr.init_joint_pos, qadr,
+                         model.jnt_range[1:1 + constants.NUM_JOINTS])[0]
+
+
+def run_trial(controller, scenario: Scenario, model_path: str | Path | None = None,
+              contact: str = "default", record: bool = False) -> dict:
+    """Runs one trial and measures it.
+
+    Returns:
+        A flat dict: the scenario, ``success`` (the paper's criterion, after the push for a
+        pushed trial), ``recovery_time`` [s] from the start, or from the end of the push
+        (None on failure), ``standing_at_end``,
+        ``fell`` (CoM below 0.5 m at some point), ``peak_torque`` [N·m], ``time_low`` (time
+        with the CoM below 0.85 m) [s], ``strategy``, ``not_applicable`` (the controller
+        declined the situation), and with ``record`` a ``trace`` of arrays at 50 Hz.
+    """
+    path = None if model_path is None else str(model_path)
+    timestep = physics_step(controller, path)
+    model = eval_model(path, timestep, controller.torque_control, contact)
+    data = mujoco.MjData(model)
+    data.qpos[:] = start_state(scenario, path, contact, timestep)
+    seat_single(model, data)
+    mujoco.mj_forward(model, data)
+    data.ctrl[:] = 0.0 if controller.torque_control else data.qpos[
+        model.jnt_qposadr[1:1 + constants.NUM_JOINTS]]
+    controller.reset(model, data)
+    torso = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, constants.TORSO_BODY)
+    groups = _contact_group_of_body(model)
+    dt = model.opt.timestep
+    every = max(1, int(round(RECORD_DT / dt)))
+    steps = int(round(scenario.duration / dt))
+    push_steps = range(int(round(scenario.push_time / dt)),
+                       int(round((scenario.push_time + scenario.push_duration) / dt)))
+    push = np.zeros(3)
+    trace: dict[str, list] = {k: [] for k in ("t", "com", "com_vel", "ang_mom", "cp",
+                                              "gravity_b", "contacts", "feet_xy", "hip")}
+    peak_torque = 0.0
+    hip_adr = model.jnt_qposadr[[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, n)
+                                 for n in ("left_hip_pitch_joint", "right_hip_pitch_joint")]]
+    for k in range(steps):
+        if k == push_steps.start and scenario.force > 0:
+            w, x, y, z = data.xquat[torso]
+            yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+            angle = yaw + scenario.direction
+            push = scenario.force * np.array([np.cos(angle), np.sin(angle), 0.0])
+        if k in push_steps and scenario.force > 0:
+            point = data.subtree_com[1] + np.array([0.0, 0.0, scenario.height])
+            data.xfrc_applied[torso, :3] = push
+            data.xfrc_applied[torso, 3:] = np.cross(point - data.xipos[torso], push)
+        elif k == push_steps.stop:
+            data.xfrc_applied[torso] = 0.0
+        data.ctrl[:] = controller(model, data)
+        if k % every == 0:
+            _record(model, data, trace, groups, hip_adr, torso)
+        mujoco.mj_step(model, data)
+        peak_torque = max(peak_torque, float(np.abs(data.actuator_force).max()))
+        if not np.isfinite(data.qpos).all():
+            break
+    arrays = {k: np.asarray(v) for k, v in trace.items()}
+    com = arrays["com"]
+    t0 = scenario.push_time + scenario.push_duration if scenario.force > 0 else 0.0
+    t_rec = recovery_time(arrays["t"], com[:, 2], arrays["com_vel"][:, 2], arrays["gravity_b"],
+                          start=t0)
+    info = controller.info() if hasattr(controller, "info") else {}
+    result = {
+        **scenario.to_dict(), "key": scenario.key, "controller": controller.name,
+        "model": path or "own", "contact": contact,
+        "success": t_rec is not None, "recovery_time": t_rec,
+        "standing_at_end": bool(com[-1, 2] > 0.85),
+        "fell": bool((com[:, 2] < 0.5).any()),
+        "peak_torque": peak_torque,
+        "time_low": float((com[:, 2] < 0.85).sum() * RECORD_DT),
+        "strategy": label_strategy(arrays, scenario.push_time if scenario.force > 0 else None),
+        "not_applicable": bool(info.get("not_applicable", False)),
+    }
+    if record:
+        result["trace"] = arrays
+    return result
+
+
+def _contact_group_of_body(model: mujoco.MjModel) -> np.ndarray:
+    """Contact group index (into CONTACT_BODIES) of each body, −1 for none."""
+    group = -np.ones(model.nbody, dtype=int)
+    for g, (_, bodies) in enumerate(CONTACT_BODIES.items()):
+        for name in bodies:
+            body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, name)
+            if body >= 0:
+                group[body] = g
+    return group
+
+
+def _record(model, data, trace, groups, hip_adr, torso) -> None:
+    mujoco.mj_subtreeVel(model, data)
+    com, vel = data.subtree_com[1].copy(), data.subtree_linvel[1].copy()
+    trace["t"].append(data.time)
+    trace["com"].append(com)
+    trace["com_vel"].append(vel)
+    trace["ang_mom"].append(data.subtree_angmom[1].copy())
+    trace["cp"].append(capture_point(com[:2], vel[:2], max(com[2], 1e-3)))
+    trace["gravity_b"].append(projected_gravity(data.xquat[torso]))
+    touching = np.zeros(len(CONTACT_BODIES), dtype=bool)
+    feet_xy = np.full((2, 4, 2), np.nan)
+    nfoot = [0, 0]
+    for c in data.contact[:data.ncon]:
+        for geom in (c.geom[0], c.geom[1]):
+            g = groups[model.geom_bodyid[geom]]
+            if g >= 0:
+                touching[g] = True
+                if g < 2 and nfoot[g] < 4:
+                    feet_xy[g, nfoot[g]] = c.pos[:2]
+                    nfoot[g] += 1
+    trace["contacts"].append(touching)
+    trace["feet_xy"].append(feet_xy)
+    trace["hip"].append(data.qpos[hip_adr].copy())
