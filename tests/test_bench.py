@@ -76,3 +76,23 @@ def test_random_states_are_valid(own_model):
     np.testing.assert_allclose(np.linalg.norm(qpos[:, 3:7], axis=1), 1.0)
     low, high = own_model.mj_model.jnt_range[1:].T
     assert np.all((qpos[:, 7:] >= low) & (qpos[:, 7:] <= high))
+
+
+def test_env_bench_reports_rates_and_split():
+    from hybrid_recovery.bench import run_env_bench
+
+    result = run_env_bench(n=4, repeat=1, steps=3, threads=1)
+    figures = json.loads(result.json_line())
+    assert figures["bench"] == "env" and figures["num_envs"] == 4
+    assert figures["env_steps_per_s"] > 0 and figures["physics_steps_per_s"] > 0
+    assert set(figures["ms_per_step"]) == {"physics", "state_and_hulls", "observations",
+                                           "resets", "rewards_terminations_other"}
+
+
+def test_train_bench_reports_split():
+    from hybrid_recovery.bench import run_train_bench
+
+    figures = json.loads(run_train_bench(n=4, repeat=1, threads=1).json_line())
+    assert figures["env_steps_per_s"] > 0
+    assert set(figures["s_per_iteration"]) == {"simulation", "observation_reward",
+                                               "policy_inference_and_storage", "ppo_update"}

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from hybrid_recovery.cli.main import command
+from hybrid_recovery.cli.registry import command
 
 
 def _bench(args: argparse.Namespace) -> int:

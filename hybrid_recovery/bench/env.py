@@ -1,0 +1,78 @@
+"""``bench env``: env steps/s with random actions vs the physics-only rate, same run."""
+
+from __future__ import annotations
+
+import os
+import time
+from collections import defaultdict
+
+from hybrid_recovery.bench.result import BenchResult
+
+
+def _timed(obj, name: str, totals: dict) -> None:
+    """Wraps ``obj.name`` to accumulate its wall time in ``totals[name]``."""
+    fn = getattr(obj, name)
+
+    def wrapper(*args, **kwargs):
+        t = time.perf_counter()
+        try:
+            return fn(*args, **kwargs)
+        finally:
+            totals[name] += time.perf_counter() - t
+
+    setattr(obj, name, wrapper)
+
+
+def run_env_bench(n: int = 1024, repeat: int = 3, seed: int = 0, steps: int = 50,
+                  threads: int = 2) -> BenchResult:
+    """Times ``RecoveryEnv.step`` on ``n`` envs, then the bare Batch on the same states.
+
+    The physics-only rate steps the same persistent Batch (same states, same number of
+    substeps, same ctrl) with no observation, reward, contact-hull or reset work.
+    """
+    import mujoco
+    import numpy as np
+    import torch
+
+    from hybrid_recovery.envs import RecoveryEnv, default_config
+
+    cfg = default_config()
+    cfg.num_envs, cfg.num_threads, cfg.seed = n, threads, seed
+    env = RecoveryEnv(cfg)
+    gen = torch.Generator().manual_seed(seed)
+    actions = [torch.randn(n, 27, generator=gen) * 0.5 for _ in range(steps)]
+    for a in actions[:5]:
+        env.step(a)
+    totals: dict[str, float] = defaultdict(float)
+    for name in ("_physics", "_read_state", "_observations", "_reset"):
+        _timed(env, name, totals)
+    best_env, best_phys = float("inf"), float("inf")
+    for _ in range(repeat):
+        totals.clear()
+        t = time.perf_counter()
+        for a in actions:
+            env.step(a)
+        best_env = min(best_env, time.perf_counter() - t)
+        ctrl = np.array(env.ctrl)
+        t = time.perf_counter()
+        for _ in range(steps):
+            for _ in range(cfg.decimation):
+                env.ctrl[:] = ctrl
+                env.sims.step(nstep=1, stage=mujoco.mjtStage.mjSTAGE_VEL)
+        best_phys = min(best_phys, time.perf_counter() - t)
+    env_rate, phys_rate = steps * n / best_env, steps * n / best_phys
+    other = best_env - sum(totals.values())
+    split = {"physics": totals["_physics"], "state_and_hulls": totals["_read_state"],
+             "observations": totals["_observations"], "resets": totals["_reset"],
+             "rewards_terminations_other": other}
+    rows = [(k, v / steps * 1e3, v / best_env) for k, v in split.items()]
+    load = os.getloadavg()[0]
+    return BenchResult(
+        name="env", title=f"RecoveryEnv.step, {n} envs, {threads} physics threads, {steps} "
+        f"steps (load average {load:.2f})",
+        columns=("part", "ms per step", "share"), rows=rows,
+        figures={"num_envs": n, "env_steps_per_s": round(env_rate, 1),
+                 "physics_steps_per_s": round(phys_rate, 1),
+                 "ratio": round(env_rate / phys_rate, 3),
+                 "ms_per_step": {k: round(v / steps * 1e3, 2) for k, v in split.items()},
+                 "loadavg_1min": round(load, 2)})
