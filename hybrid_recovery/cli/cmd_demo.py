@@ -1,4 +1,4 @@
-"""``hybrid-recovery demo``."""
+"""``hybrid-recovery demo``: the main job for a newcomer."""
 
 from __future__ import annotations
 
@@ -8,15 +8,24 @@ from hybrid_recovery.cli.registry import command
 
 
 def _demo(args: argparse.Namespace) -> int:
-    from hybrid_recovery.demo.balance_report import balance_report, print_report
+    if args.balance:
+        from hybrid_recovery.demo.balance_report import balance_report, print_report
 
-    print_report(balance_report(push_force=args.push), args.push)
+        print_report(balance_report(push_force=args.push), args.push)
+        return 0
+    from hybrid_recovery.demo.comparison import run_demo
+
+    run_demo(args.out, video=not args.no_video)
     return 0
 
 
 def _configure_demo(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--push", type=float, default=150.0, help="torso push force [N]")
+    p.add_argument("--out", default="results/demo", help="report and video directory")
+    p.add_argument("--no-video", action="store_true")
+    p.add_argument("--balance", action="store_true",
+                   help="only print the dynamics layer's balance report of a pushed robot")
+    p.add_argument("--push", type=float, default=150.0, help="--balance: push force [N]")
 
 
 _demo.configure = _configure_demo  # type: ignore[attr-defined]
-command("demo", "The main job: a balance report of the H1-2 under a torso push.")(_demo)
+command("demo", "The main job: controllers side by side on pushes, a fall and stand-ups.")(_demo)
