@@ -69,6 +69,8 @@ def run_protocol(scenarios: list[Scenario], controller: str, results: str | Path
         results.write_text(json.dumps(meta) + "\n")
     start, count, shown = time.time(), 0, 0.0
     with results.open("a") as out:
+        if results.read_bytes()[-1:] not in (b"", b"\n"):
+            out.write("\n")  # end a line torn by a killed run
         if workers <= 1:
             _init_worker(controller, model_path, contact)
             rows = map(_work, todo)

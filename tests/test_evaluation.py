@@ -1,0 +1,155 @@
+"""Evaluation: success criterion, strategy labels, confidence intervals, protocols, report."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from hybrid_recovery.evaluation import run_protocol
+from hybrid_recovery.evaluation.runner import completed_keys, load_results
+from hybrid_recovery.evaluation.scenario import Scenario, pushes_protocol, sweep_protocol
+from hybrid_recovery.evaluation.strategy import CONTACT_BODIES, label_strategy
+from hybrid_recovery.evaluation.success import recovery_time, wilson_interval
+
+DT = 0.02
+
+
+def _upright(n):
+    return np.tile([0.0, 0.0, -1.0], (n, 1))
+
+
+def _tilted(n, degrees):
+    a = np.deg2rad(degrees)
+    return np.tile([np.sin(a), 0.0, -np.cos(a)], (n, 1))
+
+
+def test_steady_stand_is_a_success():
+    t = np.arange(150) * DT
+    h = np.full(150, 0.92)
+    assert recovery_time(t, h, np.zeros(150), _upright(150)) == pytest.approx(0.0)
+
+
+def test_bounce_above_threshold_for_half_a_second_fails():
+    t = np.arange(300) * DT
+    h = np.full(300, 0.5)
+    h[100:125] = 0.9  # 0.5 s above 0.85 m
+    assert recovery_time(t, h, np.zeros(300), _upright(300)) is None
+
+
+def test_tilt_beyond_72_degrees_fails_and_within_succeeds():
+    t = np.arange(100) * DT
+    h = np.full(100, 0.9)
+    assert recovery_time(t, h, np.zeros(100), _tilted(100, 80)) is None
+    assert recovery_time(t, h, np.zeros(100), _tilted(100, 60)) is not None
+
+
+def test_vertical_speed_must_be_small():
+    t = np.arange(100) * DT
+    assert recovery_time(t, np.full(100, 0.9), np.full(100, 0.2), _upright(100)) is None
+
+
+def test_recovery_time_counts_from_start_and_after_the_push():
+    t = np.arange(400) * DT
+    h = np.full(400, 0.9)
+    h[60:200] = 0.4  # down between 1.2 s and 4.0 s
+    vel = np.zeros(400)
+    assert recovery_time(t, h, vel, _upright(400)) == pytest.approx(0.0)
+    assert recovery_time(t, h, vel, _upright(400), start=1.1) == pytest.approx(4.0 - 1.1)
+
+
+def test_wilson_interval_known_values():
+    lo, hi = wilson_interval(0, 10)
+    assert lo == 0.0 and hi == pytest.approx(0.2775, abs=1e-3)
+    lo, hi = wilson_interval(10, 10)
+    assert lo == pytest.approx(0.7225, abs=1e-3) and hi == 1.0
+    lo, hi = wilson_interval(934, 1000)
+    assert lo == pytest.approx(0.9170, abs=1e-3) and hi == pytest.approx(0.9481, abs=1e-3)
+
+
+def _trace(n=200, push=1.0):
+    t = np.arange(n) * DT
+    contacts = np.zeros((n, len(CONTACT_BODIES)), dtype=bool)
+    contacts[:, :2] = True  # both feet down
+    return {"t": t, "contacts": contacts, "ang_mom": np.zeros((n, 3)),
+            "hip": np.zeros((n, 2))}, int(push / DT)
+
+
+def test_strategy_labels_on_constructed_trajectories():
+    trace, k = _trace()
+    assert label_strategy(trace, None) == "none"
+    assert label_strategy(trace, 1.0) == "ankle"
+    trace["ang_mom"][k + 5, 1] = 5.0
+    assert label_strategy(trace, 1.0) == "hip"
+    trace, k = _trace()
+    trace["hip"][k + 5:, 0] = 0.3
+    assert label_strategy(trace, 1.0) == "hip"
+    trace, k = _trace()
+    trace["contacts"][k + 10:k + 20, 0] = False  # left foot in the air 0.2 s, then down
+    assert label_strategy(trace, 1.0) == "stepping"
+    trace["contacts"][k + 30, 2] = True  # a hand touches down
+    assert label_strategy(trace, 1.0) == "multi_contact"
+    trace, k = _trace()
+    trace["contacts"][k + 10:k + 11, 1] = False  # a 20 ms flicker is no step
+    assert label_strategy(trace, 1.0) == "ankle"
+
+
+def test_protocol_grids():
+    sweep = sweep_protocol(1)
+    assert len(sweep) == 5 * 11 * 4 * 5
+    assert len({s.key for s in sweep}) == len(sweep)
+    assert len(pushes_protocol(2)) == 10 * 4 * 2
+
+
+def test_tiny_sweep_runs_resumes_and_reports(tmp_path):
+    from hybrid_recovery.evaluation.report import write_report
+
+    scenarios = sweep_protocol(1, poses=("standing", "kneeling"), forces=(0.0, 200.0),
+                               directions=("front", "left"), heights=(0.0, 0.6),
+                               duration=2.0)
+    results = tmp_path / "results.jsonl"
+    first = run_protocol(scenarios[:5], "zero", results, workers=1, progress=False)
+    assert len(first) == 5
+    with results.open("a") as f:
+        f.write('{"key": "torn')  # a run killed mid-write
+    rows = run_protocol(scenarios, "zero", results, workers=2, progress=False)
+    assert len(rows) == len(scenarios) == 16
+    assert completed_keys(results) >= {s.key for s in scenarios}
+    assert json.loads(results.read_text().splitlines()[0])["key"] == "__header__"
+    report = write_report({"zero": rows}, tmp_path / "report", "tiny sweep")
+    text = report.read_text()
+    for panel in ("A_no_push", "BC_force", "D_time", "E_direction", "F_height"):
+        assert panel in text and any(tmp_path.joinpath("report").glob(f"*{panel}.png"))
+    assert len(load_results(results)) == 17
+
+
+def test_capture_point_figure_from_a_recorded_push(tmp_path):
+    from hybrid_recovery.evaluation.controllers import make_controller
+    from hybrid_recovery.evaluation.report import capture_point_figure
+    from hybrid_recovery.evaluation.trial import run_trial
+
+    row = run_trial(make_controller("zero"), Scenario("standing", 150.0, duration=2.0,
+                                                      noise=0.0), record=True)
+    trace = row["trace"]
+    assert trace["cp"].shape == (100, 2) and np.isfinite(trace["feet_xy"]).any()
+    capture_point_figure(trace, 1.0, tmp_path / "cp.png")
+    assert (tmp_path / "cp.png").stat().st_size > 10_000
+
+
+def test_bad_controller_and_pose_are_refused():
+    from hybrid_recovery.evaluation.controllers import make_controller
+    from hybrid_recovery.evaluation.trial import run_trial
+
+    with pytest.raises(ValueError, match="unknown controller 'nope'"):
+        make_controller("nope")
+    with pytest.raises(ValueError, match="unknown pose 'flying'"):
+        run_trial(make_controller("zero"), Scenario("flying", duration=0.1))
+
+
+def test_demo_runs_and_writes_a_report(tmp_path):
+    from hybrid_recovery.demo.comparison import run_demo
+
+    report = run_demo(tmp_path, video=False)
+    text = report.read_text()
+    assert "push 200 N forward" in text and "stand up from supine" in text
