@@ -1,0 +1,14 @@
+#!/usr/bin/env bash
+# Starts, or resumes, a training run in the background at the lowest CPU priority.
+#   training/run_background.sh [VARIANT] [RUN_DIR] [extra train options...]
+# Progress: tail -f RUN_DIR.log ; curves: tensorboard --logdir RUN_DIR
+set -euo pipefail
+variant=${1:-full}
+run_dir=${2:-runs/$variant}
+shift $(( $# > 2 ? 2 : $# ))
+resume=()
+[ -f "$run_dir/latest.pt" ] && resume=(--resume)
+mkdir -p "$(dirname "$run_dir")"
+nohup nice -n 19 hybrid-recovery train --variant "$variant" --run-dir "$run_dir" \
+  "${resume[@]}" "$@" >> "$run_dir.log" 2>&1 &
+echo "training $variant in $run_dir (pid $!, log $run_dir.log)"
