@@ -58,14 +58,15 @@ class Curriculum:
             return False
         if np.mean(self._outcomes) < self.cfg.advance_success:
             return False
-        if self.stage == 3 and self.level >= 1.0:
+        if self.stage == 3 and self.level >= 1.0 - 1e-9:
             return False
         self._outcomes.clear()
         if self.stage == 1:
             self.stage, self.level = 2, self.cfg.step
         elif self.level + 1e-9 < 1.0:
-            self.level = min(1.0, self.level + self.cfg.step)
-        else:
+            # rounded, so that ten steps of 0.1 reach exactly 1.0 (not 0.9999999999999999)
+            self.level = min(1.0, round(self.level + self.cfg.step, 9))
+        else:  # stage 2 at level 1
             self.stage, self.level = 3, self.cfg.step
         return True
 

@@ -280,13 +280,17 @@ class RecoveryEnv(VecEnv):
                 qpos[rows] = pool[rng.integers(len(pool), size=len(rows))]
         qpos = perturb_start(qpos, rng, dr.init_base_pos, dr.init_base_rot, dr.init_joint_pos,
                              self.qadr, self.model.jnt_range[1:1 + self.num_actions])
+        self.randomizer.set_limits(ids, self.curriculum.torque_scale,
+                                   self.curriculum.position_limit_factor)
+        # start inside this episode's (scaled) joint ranges: the limit constraint would
+        # kick a start beyond them (squatting: 14 rad/s within 60 ms at factor 0.9)
+        lo, hi = self.randomizer.jnt_range[ids, 1:1 + self.num_actions].transpose(2, 0, 1)
+        qpos[:, self.qadr] = np.clip(qpos[:, self.qadr], lo, hi)
         self.sims.reset(ids, stage=mujoco.mjtStage.mjSTAGE_NONE)
         self.qpos[ids] = qpos
         self.qvel[ids] = 0.0
         seat_on_ground(self.model, self.sims, ids)
         self.randomizer.randomize(ids, rng, self.curriculum.difficulty)
-        self.randomizer.set_limits(ids, self.curriculum.torque_scale,
-                                   self.curriculum.position_limit_factor)
         delay = rng.integers(self._delay_steps[0], self._delay_steps[1] + 1, n)
         sub = np.arange(self.cfg.decimation)
         self.delay_offset[ids] = np.clip(

@@ -1,0 +1,132 @@
+"""Rendering: the balance overlay's geometry (no OpenGL needed) and a short MP4 written by
+``hybrid-recovery play`` in a subprocess with ``MUJOCO_GL=egl`` (skipped, with the reason,
+where no OpenGL context can be made)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+
+import mujoco
+import numpy as np
+import pytest
+
+from hybrid_recovery.dynamics import RobotModel
+from hybrid_recovery.dynamics.support import signed_distance
+from hybrid_recovery.envs.play import play
+from hybrid_recovery.envs.render import BalanceOverlay, add_overlay, balance_overlay
+from hybrid_recovery.envs.scene import build_scene
+from hybrid_recovery.robot.mjcf import default_qpos
+
+
+@pytest.fixture(scope="module")
+def standing():
+    model, _ = build_scene()
+    data = mujoco.MjData(model)
+    data.qpos[:] = default_qpos(model)  # soles on the ground
+    return model, data
+
+
+def updated_scene(model, data) -> mujoco.MjvScene:
+    scene = mujoco.MjvScene(model, maxgeom=1000)
+    mujoco.mjv_updateScene(model, data, mujoco.MjvOption(), mujoco.MjvPerturb(),
+                           mujoco.MjvCamera(), mujoco.mjtCatBit.mjCAT_ALL, scene)
+    return scene
+
+
+def test_overlay_of_a_still_standing_robot(standing):
+    model, data = standing
+    overlay = balance_overlay(model, data)
+    ref = RobotModel(model).balance_state(data.qpos, data.qvel)
+    np.testing.assert_allclose(overlay.com, ref.com, atol=1e-9)
+    np.testing.assert_allclose(overlay.capture_point, overlay.com[:2], atol=1e-12)  # ċ = 0
+    assert overlay.feet_polygon.shape == (4, 2)  # both soles: one rectangle around them
+    assert signed_distance(overlay.capture_point, overlay.feet_polygon) < -0.05
+    np.testing.assert_allclose(overlay.support_polygon, overlay.feet_polygon)
+    assert not overlay.push_force.any()
+
+
+def test_overlay_geoms_are_where_the_quantities_are(standing):
+    model, data = standing
+    overlay = balance_overlay(model, data, push_force=np.array([200.0, 0.0, 0.0]))
+    scene = updated_scene(model, data)
+    first = scene.ngeom
+    added = add_overlay(scene, overlay)
+    # CoM sphere + its plumb line, ξ sphere, 4 edges of C_feet (C is the same), push arrow
+    assert added == 3 + 4 + 1
+    geoms = [scene.geoms[first + k] for k in range(added)]
+    np.testing.assert_allclose(geoms[0].pos, overlay.com)
+    assert geoms[0].type == mujoco.mjtGeom.mjGEOM_SPHERE
+    np.testing.assert_allclose(geoms[2].pos[:2], overlay.capture_point)
+    assert 0.0 < geoms[2].pos[2] < 0.05  # on the ground
+    edge_mid = [g.pos[:2] for g in geoms[3:7]]
+    poly = overlay.feet_polygon
+    np.testing.assert_allclose(edge_mid, (poly + np.roll(poly, -1, 0)) / 2, atol=1e-9)
+    assert all(g.pos[2] < 0.01 for g in geoms[3:7])
+    arrow = geoms[7]
+    assert arrow.type == mujoco.mjtGeom.mjGEOM_ARROW
+    assert arrow.pos[0] < overlay.push_point[0]  # the arrow starts behind the torso
+
+
+def test_polygons_of_one_and_two_points_and_a_full_scene(standing):
+    model, data = standing
+    base = dict(com=np.zeros(3), capture_point=np.zeros(2), push_force=np.zeros(3),
+                push_point=np.zeros(3))
+    for k, expected in ((0, 3), (1, 4), (2, 4)):
+        poly = np.arange(2 * k, dtype=float).reshape(k, 2)
+        overlay = BalanceOverlay(feet_polygon=poly, support_polygon=poly, **base)
+        assert add_overlay(updated_scene(model, data), overlay) == expected
+    full = updated_scene(model, data)
+    full.ngeom = full.maxgeom
+    overlay = BalanceOverlay(feet_polygon=np.zeros((0, 2)), support_polygon=np.zeros((0, 2)),
+                             **base)
+    assert add_overlay(full, overlay) == 0
+
+
+def test_play_validates_its_arguments(tmp_path):
+    with pytest.raises(ValueError, match=r"^unknown pose 'lying': choose one of \["):
+        play(tmp_path / "x.mp4", pose="lying")
+    with pytest.raises(ValueError, match=r"^fps must divide the 50 Hz control rate "
+                                         r"\(25 or 50\), got 30$"):
+        play(tmp_path / "x.mp4", fps=30)
+    with pytest.raises(ValueError, match=r"^seconds must be > 0, got 0.0$"):
+        play(tmp_path / "x.mp4", seconds=0.0)
+
+
+_GL_PROBE = textwrap.dedent("""
+    import mujoco
+    model = mujoco.MjModel.from_xml_string("<mujoco><worldbody/></mujoco>")
+    mujoco.Renderer(model, 48, 64).close()
+""")
+
+
+def _egl_env() -> dict:
+    env = dict(os.environ, MUJOCO_GL="egl")
+    env.pop("PYOPENGL_PLATFORM", None)
+    return env
+
+
+def test_play_writes_a_short_mp4(tmp_path):
+    probe = subprocess.run([sys.executable, "-c", _GL_PROBE], env=_egl_env(),
+                           capture_output=True, text=True, timeout=120)
+    if probe.returncode != 0:
+        pytest.skip("no OpenGL context for offscreen rendering (MUJOCO_GL=egl): "
+                    + (probe.stderr.strip().splitlines() or ["?"])[-1])
+    out = tmp_path / "clip.mp4"
+    run = subprocess.run(
+        [sys.executable, "-m", "hybrid_recovery.cli.main", "play", "--seconds", "0.4",
+         "--push", "250", "--push-time", "0.1", "--out", str(out)],
+        env=_egl_env(), capture_output=True, text=True, timeout=300)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert "(10 frames at 25 fps)" in run.stdout
+    import imageio.v2 as imageio
+
+    with imageio.get_reader(str(out)) as reader:
+        assert reader.get_meta_data()["fps"] == 25
+        frames = [np.asarray(f) for f in reader]
+    assert len(frames) == 10
+    assert frames[0].shape == (480, 640, 3)
+    assert frames[0].std() > 5  # a picture, not a blank
+    assert np.abs(frames[-1].astype(int) - frames[0]).mean() > 0.1  # the robot moved
