@@ -76,7 +76,8 @@ def run_demo(out_dir: str | Path = "results/demo", video: bool = True) -> Path:
     print(_table(results))
     md = "\n".join(f"*{n}*" for n in notes)
     report = write_report(results, out, "hybrid_recovery demo: controllers side by side",
-                          cp_traces=traces, notes=md + "\n\n" + _table(results))
+                          cp_traces=traces, notes=md + "\n\n" + _table(results),
+                          sweep_plots=False)
     if video:
         _video(specs[-1], out)
     print(f"report: {report}")
@@ -108,7 +109,7 @@ def _table(results: dict[str, list[dict]]) -> str:
 
 def _video(spec: str, out: Path) -> None:
     try:
-        from hybrid_recovery.envs.render import render_trial
+        from hybrid_recovery.evaluation.video import render_trial
     except ImportError as err:
         print(f"note: no video ({err})")
         return

@@ -176,7 +176,8 @@ def capture_point_figure(trace: dict, push_time: float, path: Path, title: str =
 
 def write_report(results: dict[str, list[dict]], out_dir: str | Path, title: str,
                  cp_traces: dict[str, tuple[dict, float]] | None = None,
-                 ablation: str | None = None, notes: str = "") -> Path:
+                 ablation: str | None = None, notes: str = "",
+                 sweep_plots: bool = True) -> Path:
     """Writes ``report.md`` and its PNGs for one or more controllers' results.
 
     Args:
@@ -186,6 +187,7 @@ def write_report(results: dict[str, list[dict]], out_dir: str | Path, title: str
         cp_traces: controller label → (recorded trace, push time) for the CP figure.
         ablation: a Markdown ablation table to include.
         notes: Markdown paragraphs placed after the title.
+        sweep_plots: draw the force/direction/height panels when forces vary.
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -197,7 +199,7 @@ def write_report(results: dict[str, list[dict]], out_dir: str | Path, title: str
         if pushed and len({r["pose"] for r in rows}) == 1:
             md += ["Push hierarchy (success and most frequent strategy):", "",
                    strategy_table(pushed), ""]
-        if len({r["force"] for r in rows}) > 1:
+        if sweep_plots and len({r["force"] for r in rows}) > 1:
             for caption, name in sweep_figures(rows, out, prefix=f"{safe}_"):
                 md += [f"![{caption}]({name})", ""]
         if cp_traces and label in cp_traces:

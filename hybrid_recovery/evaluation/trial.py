@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 from pathlib import Path
 
 import mujoco
@@ -68,8 +69,13 @@ def start_state(scenario: Scenario, model_path: str | None, contact: str,
 
 
 def run_trial(controller, scenario: Scenario, model_path: str | Path | None = None,
-              contact: str = "default", record: bool = False) -> dict:
+              contact: str = "default", record: bool = False,
+              on_sample: Callable[[mujoco.MjModel, mujoco.MjData, np.ndarray], None]
+              | None = None) -> dict:
     """Runs one trial and measures it.
+
+    ``on_sample(model, data, push_force)`` is called at every recorded sample (50 Hz),
+    e.g. to render frames.
 
     Returns:
         A flat dict: the scenario, ``success`` (the paper's criterion, after the push for a
@@ -117,6 +123,8 @@ def run_trial(controller, scenario: Scenario, model_path: str | Path | None = No
         data.ctrl[:] = controller(model, data)
         if k % every == 0:
             _record(model, data, trace, groups, hip_adr, torso)
+            if on_sample is not None:
+                on_sample(model, data, data.xfrc_applied[torso, :3].copy())
         mujoco.mj_step(model, data)
         peak_torque = max(peak_torque, float(np.abs(data.actuator_force).max()))
         if not np.isfinite(data.qpos).all():

@@ -1,0 +1,39 @@
+"""A trial rendered to an MP4 with the balance overlay (CoM, ξ, support polygons)."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+from hybrid_recovery.evaluation.scenario import Scenario
+from hybrid_recovery.evaluation.trial import RECORD_DT, run_trial
+
+
+def render_trial(controller, scenario: Scenario, path: str | Path, seconds: float | None = None,
+                 fps: int = 25, model_path: str | None = None) -> Path:
+    """Runs ``scenario`` with ``controller`` and writes its video to ``path``.
+
+    Needs an OpenGL context (``MUJOCO_GL=egl`` or ``osmesa`` set before mujoco is imported).
+    """
+    import imageio.v2 as imageio
+
+    from hybrid_recovery.envs.render import BalanceRenderer, balance_overlay
+
+    every = max(1, round(1.0 / (fps * RECORD_DT)))
+    renderer = BalanceRenderer(model_path)
+    frames, count = [], [0]
+
+    def grab(model, data, push) -> None:
+        if count[0] % every == 0:
+            frames.append(renderer.frame(data.qpos, balance_overlay(model, data, push), 1 / fps))
+        count[0] += 1
+
+    if seconds is not None:
+        scenario = dataclasses.replace(scenario, duration=seconds)
+    try:
+        run_trial(controller, scenario, model_path, on_sample=grab)
+    finally:
+        renderer.close()
+    path = Path(path)
+    imageio.mimwrite(path, frames, fps=fps, macro_block_size=1)
+    return path
