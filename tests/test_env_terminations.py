@@ -20,7 +20,7 @@ UPRIGHT_HEIGHT = 0.85
 
 def run_stuck(heights: np.ndarray, duration: float = 2.0, rise: float = 0.02) -> np.ndarray:
     """Feeds a height sequence (T,) to StuckLow; returns the stuck flag per step (T,)."""
-    stuck = StuckLow(1, duration, rise)
+    stuck = StuckLow(1, duration, rise, DT)
     stuck.reset(np.array([0]), heights[:1])
     flags = [stuck.update(np.array([h]), DT, np.array([h < UPRIGHT_HEIGHT]))[0]
              for h in heights[1:]]
@@ -79,7 +79,7 @@ def test_upright_standing_still_is_never_stuck():
 
 
 def test_reset_clears_the_timer():
-    stuck = StuckLow(2, 2.0, 0.02)
+    stuck = StuckLow(2, 2.0, 0.02, DT)
     stuck.reset(np.array([0, 1]), np.array([0.2, 0.2]))
     for _ in range(99):
         stuck.update(np.array([0.2, 0.2]), DT, np.array([True, True]))
@@ -129,3 +129,10 @@ def test_half_second_bounces_never_succeed():
     bounce = ([True] * 25 + [False]) * 6
     times = _upright_time(bounce)
     assert times.max() == pytest.approx(0.5) and (times < 1.0).all()
+
+
+def test_wiggling_on_the_ground_does_not_postpone_stuck():
+    t = np.arange(300) * DT
+    heights = 0.3 + 0.03 * np.sin(2 * np.pi * 1.0 * t)  # ±3 cm at 1 Hz, no net rise
+    flags = run_stuck(heights)
+    assert flags.any() and int(np.argmax(flags)) * DT <= 3.0

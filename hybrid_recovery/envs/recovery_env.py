@@ -76,7 +76,7 @@ class RecoveryEnv(VecEnv):
         self.randomizer = Randomizer(m, self.sims, cfg.domain_rand)
         self.curriculum = Curriculum(cfg.curriculum)
         self.pushes = Pushes(cfg.pushes, n, self.dt)
-        self.stuck = StuckLow(n, cfg.stuck_time, cfg.stuck_rise)
+        self.stuck = StuckLow(n, cfg.stuck_time, cfg.stuck_rise, self.dt)
         self.pool = settle_pool(m, per_pose=32, rng=self.rng, nthread=cfg.num_threads)
         self.noise = noise_halfwidths(cfg.noise.ang_vel, cfg.noise.gravity, cfg.noise.joint_pos,
                                       cfg.noise.joint_vel)

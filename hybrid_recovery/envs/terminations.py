@@ -35,24 +35,29 @@ def success_step(upright_time: np.ndarray, state: dict, dt: float) -> np.ndarray
 
 
 class StuckLow:
-    """Stuck-low: the CoM has not risen by ``rise`` for ``duration`` while not upright.
+    """Stuck-low: while not upright, the CoM is less than ``rise`` above its lowest point
+    of the last ``duration`` seconds (and the episode is at least that old).
 
-    The reference height follows the CoM down and is reset on every rise of ``rise``
-    above it, so a fall followed by a stand-up attempt is not stuck, but lying still is.
+    Measuring the rise from the window's minimum makes a fall followed by a stand-up
+    attempt not stuck, and lying still stuck after ``duration``; small oscillations of
+    the CoM do not reset anything (each trough is a new minimum), so wiggling on the
+    ground cannot postpone the termination.
     """
 
-    def __init__(self, num_envs: int, duration: float, rise: float) -> None:
-        self.duration, self.rise = duration, rise
-        self.reference = np.zeros(num_envs)
-        self.timer = np.zeros(num_envs)
+    def __init__(self, num_envs: int, duration: float, rise: float, dt: float = 0.02) -> None:
+        self.duration, self.rise, self.dt = duration, rise, dt
+        self.window = max(1, int(round(duration / dt))) + 1  # samples spanning [t − T, t]
+        self.heights = np.zeros((num_envs, self.window))
+        self.steps = np.zeros(num_envs, dtype=int)
 
     def reset(self, ids: np.ndarray, height: np.ndarray) -> None:
-        self.reference[ids] = height
-        self.timer[ids] = 0.0
+        self.heights[ids] = np.asarray(height)[:, None]
+        self.steps[ids] = 1  # the reset height is the first sample
 
     def update(self, height: np.ndarray, dt: float, low: np.ndarray) -> np.ndarray:
-        """Advances by dt; returns the envs that are stuck low, shape (N,) bool."""
-        rose = height > self.reference + self.rise
-        self.reference = np.where(rose, height, np.minimum(self.reference, height))
-        self.timer = np.where(rose | ~low, 0.0, self.timer + dt)
-        return self.timer >= self.duration
+        """Adds one sample (every ``dt`` = the construction's dt); returns the stuck envs."""
+        del dt
+        self.heights[:, self.steps % self.window] = height
+        self.steps += 1
+        full = self.steps >= self.window
+        return low & full & (height - self.heights.min(axis=1) < self.rise)
