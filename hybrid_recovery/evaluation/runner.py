@@ -81,7 +81,7 @@ def run_protocol(scenarios: list[Scenario], controller: str, results: str | Path
             rows = pool.imap_unordered(_work, todo)
         try:
             for row in rows:
-                out.write(json.dumps(row) + "\n")
+                out.write(json.dumps(row, default=str) + "\n")
                 out.flush()
                 count += 1
                 if progress and (time.time() - shown > 1.0 or count == len(todo)):

@@ -31,9 +31,9 @@ def eval_model(model_path: str | None, timestep: float, torque_control: bool,
                contact: str) -> mujoco.MjModel:
     """The evaluation model (cached per process): robot, floor, actuators, contact preset."""
     if torque_control:
-        from hybrid_recovery.control import torque_model
+        from hybrid_recovery.control.torque_model import load_torque_model
 
-        model = torque_model(model_path, timestep=timestep)
+        model = load_torque_model(model_path, timestep=timestep)
     else:
         model = load_mjmodel(model_path, timestep=timestep)
     apply_contact_preset(model, contact)
@@ -144,7 +144,8 @@ def run_trial(controller, scenario: Scenario, model_path: str | Path | None = No
         "peak_torque": peak_torque,
         "time_low": float((com[:, 2] < 0.85).sum() * RECORD_DT),
         "strategy": label_strategy(arrays, scenario.push_time if scenario.force > 0 else None),
-        "not_applicable": bool(info.get("not_applicable", False)),
+        "not_applicable": bool(info.pop("not_applicable", False)),
+        "controller_info": info,
     }
     if record:
         result["trace"] = arrays

@@ -1,0 +1,173 @@
+"""Typed settings of the QP balance controller and the hybrid supervisor (units in each field).
+
+``default_config()`` returns the tuned values; override fields with
+``dataclasses.replace`` (or attribute assignment on a fresh config).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+
+@dataclass
+class QpConfig:
+    """Whole-body QP: task weights, task gains, contact model and solver settings.
+
+    The cost is Σ_i w_i ‖J_i q̈ − b_i‖² + w_q̈ ‖q̈‖² + w_ρ ‖ρ‖², ρ the friction-pyramid
+    coefficients of the sole-corner forces.
+    """
+
+    w_linear_momentum: float = 1.0
+    """Weight of the linear momentum rate task ṗ_l = m c̈_des [1/N²]."""
+    w_angular_momentum: float = 0.5
+    """Weight of the angular momentum rate task L̇ = L̇_des [1/(N·m)²]."""
+    w_swing_foot: float = 2e4
+    """Weight of the swing-foot spatial acceleration task [s⁴/m²]."""
+    w_pelvis_orientation: float = 20.0
+    """Weight of the pelvis angular acceleration task [s⁴]."""
+    w_posture_legs: float = 0.5
+    """Weight of the joint-space posture task, leg joints [s⁴]."""
+    w_posture_upper: float = 5.0
+    """Weight of the joint-space posture task, waist and arm joints [s⁴]."""
+    w_qacc: float = 1e-4
+    """Regularisation of q̈ [s⁴]."""
+    w_force: float = 1e-6
+    """Regularisation of the pyramid coefficients ρ [1/N²]."""
+    pelvis_kp: float = 60.0
+    """Pelvis orientation stiffness [1/s²]."""
+    pelvis_kd: float = 12.0
+    """Pelvis orientation damping [1/s]."""
+    posture_kp: float = 60.0
+    """Posture stiffness toward q* [1/s²]."""
+    posture_kd: float = 12.0
+    """Posture damping [1/s]."""
+    swing_kp: float = 400.0
+    """Swing-foot position and orientation stiffness [1/s²]."""
+    swing_kd: float = 40.0
+    """Swing-foot damping [1/s]."""
+    contact_kd: float = 10.0
+    """Stance-foot velocity damping in the contact constraint a_foot = −k v_foot [1/s]."""
+    limit_horizon: float = 0.1
+    """Horizon T of the joint-limit acceleration box [s]."""
+    limit_margin: float = 0.02
+    """Joint limits shrunk by this margin in the QP [rad]."""
+    friction: float = 0.6
+    """Friction coefficient μ of the linearised (inner) pyramid, 4 edges per corner."""
+    max_corner_force: float = 1500.0
+    """Upper bound of each pyramid coefficient ρ [N]."""
+    torque_limit_scale: float = 1.0
+    """Torque limits in the QP as a fraction of ``constants.EFFORT_LIMITS``."""
+    eps_abs: float = 1e-5
+    """proxsuite absolute tolerance."""
+    max_iter: int = 50
+    """proxsuite outer (and inner) iteration cap; reaching it counts as a failure."""
+
+
+@dataclass
+class DcmConfig:
+    """Capture-point (DCM) control and the ankle/hip split of the desired CMP."""
+
+    k_xi: float = 1.5
+    """DCM gain k in r_cmp = ξ + k (ξ − ξ_ref); ξ converges at rate k ω [-]."""
+    cop_margin: float = 0.015
+    """CoP kept this far inside the support polygon [m] (ankle strategy)."""
+    max_angular_momentum_rate: float = 60.0
+    """Bound ‖L̇_xy‖ of the hip strategy [N·m]."""
+    max_angular_momentum: float = 8.0
+    """Bound ‖L_xy‖ of the hip strategy [kg·m²/s]."""
+    angular_momentum_damping: float = 4.0
+    """L̇_des = −k_L L when the CMP needs no offset [1/s]."""
+    height_kp: float = 100.0
+    """CoM height stiffness [1/s²]."""
+    height_kd: float = 20.0
+    """CoM height damping [1/s]."""
+    ankle_threshold: float = 0.01
+    """|r_cmp − ξ_ref| above which a tick counts as ankle strategy [m]."""
+    hip_threshold: float = 0.002
+    """CMP offset outside the CoP region above which a tick counts as hip strategy [m]."""
+
+
+@dataclass
+class SteppingConfig:
+    """Capture steps: when to step, where, and the swing trajectory."""
+
+    enabled: bool = True
+    """Allow steps; with False only ankle and hip strategies are used."""
+    swing_time: float = 0.35
+    """Swing duration Δt_s, also the shortest step time of the capture region [s]."""
+    step_length: float = 0.55
+    """Largest distance l_max of the new sole centre from the stance sole centre [m]."""
+    foot_size: float = 0.04
+    """r_max: ξ within this distance of the new sole centre counts as captured [m]."""
+    min_width: float = 0.2
+    """Least lateral distance between the sole centres (no leg crossing) [m]."""
+    lateral_offset: float = 0.03
+    """New sole centre placed this far beyond ξ at touchdown, away from the stance [m]."""
+    target_margin: float = 0.02
+    """The target is kept this far inside the capture region when it can be [m]."""
+    swing_height: float = 0.07
+    """Apex height of the swing trajectory [m]."""
+    touchdown_depth: float = 0.01
+    """The swing target lies this far below the ground so that contact is made [m]."""
+    hip_margin_scale: float = 0.8
+    """Step when ξ is farther out of C than this fraction of the hip's reach [-]."""
+    lookahead: float = 0.05
+    """Horizon of the "is ξ coming back" check before a step [s]."""
+    replan_until: float = 0.6
+    """The step target is re-planned until this fraction of the swing [-]."""
+    replan_period: float = 0.01
+    """Re-planning period during the swing [s]."""
+    region_vertices: int = 16
+    """Vertices of the discs of the 1-step capture region polygon [-]."""
+    touchdown_force: float = 40.0
+    """Normal force on the swing sole that ends the swing (after half of it) [N]."""
+    touchdown_timeout: float = 1.5
+    """Swing phase s = (t − t₀)/T after which touchdown is declared without contact [-]."""
+    min_double_support: float = 0.08
+    """Double support time after touchdown before another step [s]."""
+    max_steps: int = 4
+    """Most steps per recovery; N of the N-step capturability check."""
+
+
+@dataclass
+class BalanceConfig:
+    """The QP balance controller: its parts and when it applies."""
+
+    qp: QpConfig = field(default_factory=QpConfig)
+    dcm: DcmConfig = field(default_factory=DcmConfig)
+    stepping: SteppingConfig = field(default_factory=SteppingConfig)
+    min_com_height: float = 0.6
+    """Below this CoM height [m] the robot is down: not applicable."""
+    max_tilt: float = 1.0
+    """Above this pelvis tilt from vertical [rad] the robot is down: not applicable."""
+    foot_contact_force: float = 5.0
+    """Normal force above which a sole counts as in contact [N]."""
+    damping_gain: float = 1.0
+    """Safe command when not applicable: τ = −k KD q̇ [-] (KD from constants)."""
+
+
+@dataclass
+class SupervisorConfig:
+    """Hybrid supervisor: hysteresis between the QP controller and the learned policy."""
+
+    to_policy_delay: float = 0.03
+    """Uncapturable (no ankle, hip or step option) this long → policy [s]."""
+    to_qp_dwell: float = 0.5
+    """Upright and 0-step capturable this long → back to the QP [s]."""
+    to_qp_margin: float = 0.02
+    """ξ at least this far inside the feet polygon to go back to the QP [m]."""
+    to_qp_max_com_speed: float = 0.15
+    """CoM speed below this to go back to the QP [m/s]."""
+    to_qp_min_com_height: float = 0.85
+    """CoM height above this to go back to the QP [m]."""
+    blend_time: float = 0.2
+    """Hand-over time: joint targets (QP → policy) or torques (policy → QP) [s]."""
+    policy_dt: float = 0.02
+    """Policy period (50 Hz) [s]; the PD law runs every physics step."""
+    action_scale: float = 0.3
+    """q_ref = q* + scale · a [rad]."""
+
+
+def default_config() -> BalanceConfig:
+    """The tuned QP balance controller settings."""
+    return BalanceConfig()

@@ -1,0 +1,93 @@
+"""The learned policy as a torque controller: 50 Hz actions, PD law every physics step.
+
+Every ``policy_dt`` the observation o_t = ``actor_observation(ω_IMU, q_IMU, q, q̇,
+a_{t−1})`` (the shared builder) goes through the policy; the joint targets are
+q_ref = q* + 0.3 a_t and every physics step τ = clip(K_P (q_ref − q) − K_D q̇, ±τ_max)
+with ``constants.KP``/``KD`` — the law of the position servos of
+:func:`hybrid_recovery.robot.mjcf.load_mjmodel`, written out so that the policy runs on
+the torque model shared with the QP controller.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import mujoco
+import numpy as np
+
+from hybrid_recovery.observation import actor_observation
+from hybrid_recovery.robot import constants
+
+
+def imu_reading(model: mujoco.MjModel, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
+    """Torso IMU (site ``imu``): angular velocity in its frame [rad/s] (3,), quaternion (4,)."""
+    site = model.site("imu").id
+    vel = np.zeros(6)
+    mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_SITE, site, vel, 1)
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, data.site_xmat[site])
+    return vel[:3], quat
+
+
+def pd_torque(q_ref: np.ndarray, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+    """τ = clip(K_P (q_ref − q) − K_D q̇, ±τ_max), shape (27,) [N·m]."""
+    tau = constants.KP * (q_ref - q) - constants.KD * qd
+    return np.clip(tau, -constants.EFFORT_LIMITS, constants.EFFORT_LIMITS)
+
+
+class PolicyController:
+    """A policy a = π(o) on the torque model.
+
+    Args:
+        policy: Maps o_t (87,) to a_t (27,), e.g. an
+            :class:`hybrid_recovery.control.onnx_policy.OnnxPolicy`.
+        policy_dt: Action period [s] (50 Hz).
+        action_scale: q_ref = q* + scale · a [rad].
+
+    Attributes:
+        q_ref: The current joint targets, shape (27,) [rad].
+        last_action: a_{t−1}, shape (27,).
+    """
+
+    def __init__(self, policy: Callable[[np.ndarray], np.ndarray], policy_dt: float = 0.02,
+                 action_scale: float = 0.3) -> None:
+        if policy_dt <= 0.0:
+            raise ValueError("policy_dt must be > 0")
+        self.policy, self.policy_dt, self.action_scale = policy, policy_dt, action_scale
+        self.q_ref = constants.DEFAULT_JOINT_POS.copy()
+        self.last_action = np.zeros(constants.NUM_JOINTS)
+        self._next_time = -np.inf
+        self._qadr = self._dadr = None
+
+    def reset(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        """Zero last action; the first action is taken at the next call."""
+        ids = [model.joint(n).id for n in constants.JOINT_NAMES]
+        self._qadr, self._dadr = model.jnt_qposadr[ids], model.jnt_dofadr[ids]
+        self.last_action = np.zeros(constants.NUM_JOINTS)
+        self.q_ref = constants.DEFAULT_JOINT_POS.copy()
+        self._next_time = -np.inf
+
+    def joints(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
+        """(q, q̇) in motor order."""
+        return data.qpos[self._qadr], data.qvel[self._dadr]
+
+    def update_targets(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+        """Runs the policy when its period is due; returns q_ref (27,) [rad]."""
+        if self._qadr is None:
+            self.reset(model, data)
+        if data.time >= self._next_time - 1e-9:
+            gyro, quat = imu_reading(model, data)
+            q, qd = self.joints(data)
+            obs = actor_observation(gyro[None], quat[None], q[None], qd[None],
+                                    self.last_action[None])[0]
+            action = np.asarray(self.policy(obs), dtype=float)
+            self.q_ref = constants.DEFAULT_JOINT_POS + self.action_scale * action
+            self.last_action = action
+            self._next_time = data.time + self.policy_dt
+        return self.q_ref
+
+    def __call__(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+        """τ (27,) [N·m] from the PD law on the current targets."""
+        q_ref = self.update_targets(model, data)
+        q, qd = self.joints(data)
+        return pd_torque(q_ref, q, qd)

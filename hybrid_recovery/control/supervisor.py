@@ -1,0 +1,142 @@
+"""Hybrid supervisor: the QP controller while the robot is capturable, the policy otherwise.
+
+State machine (every physics step; decisions appended to :attr:`HybridSupervisor.events`):
+
+* **qp → policy** at once when the QP does not apply (robot down: low CoM, non-foot
+  contact, large tilt), or when the capturability analysis finds no ankle, hip or step
+  option (:attr:`Capturability.NONE`) for ``to_policy_delay``. Hand-over of joint
+  targets: q_ref = (1 − α) q_switch + α (q* + 0.3 a_t), α ramping 0 → 1 over
+  ``blend_time`` from the measured joints q_switch, so the PD law starts from zero
+  position error instead of jumping to the policy's targets.
+* **policy → qp** once the robot has stood for ``to_qp_dwell`` without a break: the QP
+  applies, ξ is at least ``to_qp_margin`` inside the feet polygon, the CoM is above
+  ``to_qp_min_com_height`` and slower than ``to_qp_max_com_speed``. Hand-over of
+  torques: τ = (1 − α) τ_policy + α τ_QP over ``blend_time``; the QP restarts from the
+  current stance.
+
+The entry conditions of the QP are stricter than its exit conditions (0-step capturable
+with margin, slow, for a dwell time, against "not even a step helps"): that gap and the
+dwell time are the hysteresis.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from hybrid_recovery.control.balance_controller import BalanceController, check_state
+from hybrid_recovery.control.config import BalanceConfig, SupervisorConfig
+from hybrid_recovery.control.diagnostics import Capturability, Event, TickDiagnostics
+from hybrid_recovery.control.onnx_policy import OnnxPolicy
+from hybrid_recovery.control.policy_controller import PolicyController, pd_torque
+
+QP, POLICY = "qp", "policy"
+
+
+class HybridSupervisor:
+    """Switches between a :class:`BalanceController` and a learned :class:`PolicyController`.
+
+    Args:
+        balance: The QP balance controller.
+        policy: The learned policy on the torque model.
+        config: Switching thresholds; defaults when None.
+
+    Attributes:
+        mode: ``"qp"`` or ``"policy"``.
+        events: Switching decisions (``"to_policy"``, ``"to_qp"``) with their reasons.
+        diagnostics: The last tick's :class:`TickDiagnostics` of the capturability check.
+    """
+
+    def __init__(self, balance: BalanceController, policy: PolicyController,
+                 config: SupervisorConfig | None = None) -> None:
+        self.balance, self.policy = balance, policy
+        self.config = config or SupervisorConfig()
+        self.mode = QP
+        self.events: list[Event] = []
+        self.diagnostics: TickDiagnostics | None = None
+        self._timer = 0.0
+        self._switch_time = -np.inf
+        self._q_switch = np.zeros(0)
+
+    @classmethod
+    def from_onnx(cls, path: str | Path, balance_config: BalanceConfig | None = None,
+                  config: SupervisorConfig | None = None) -> HybridSupervisor:
+        """The QP controller plus an exported policy (``.onnx``) at 50 Hz."""
+        cfg = config or SupervisorConfig()
+        policy = PolicyController(OnnxPolicy(path), cfg.policy_dt, cfg.action_scale)
+        return cls(BalanceController(balance_config), policy, cfg)
+
+    def reset(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        """Starts in the QP mode if the robot stands (the QP applies), else in the policy."""
+        self.balance.reset(model, data)
+        self.policy.reset(model, data)
+        self.events = []
+        self._timer = 0.0
+        self._switch_time = -np.inf
+        first = self.balance.assess(model, data)
+        self.diagnostics = first
+        self.mode = QP if first.applicable else POLICY
+        if self.mode == POLICY:
+            self._q_switch = self.policy.joints(data)[0].copy()
+            self.events.append(Event(float(data.time), "to_policy",
+                                     f"start: QP not applicable ({first.reason})"))
+
+    def _alpha(self, t: float) -> float:
+        blend = self.config.blend_time
+        return 1.0 if blend <= 0.0 else float(np.clip((t - self._switch_time) / blend, 0.0, 1.0))
+
+    def __call__(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+        """τ (27,) [N·m] of the active controller, blended during a hand-over.
+
+        Raises:
+            ValueError: On a non-finite state (as :class:`BalanceController`).
+        """
+        check_state(data)
+        t, dt = float(data.time), float(model.opt.timestep)
+        if self.mode == QP:
+            torque = self.balance(model, data)
+            diag = self.diagnostics = self.balance.diagnostics
+            assert diag is not None
+            if not diag.applicable:
+                return self._to_policy(model, data, f"QP not applicable: {diag.reason}")
+            self._timer = self._timer + dt if diag.capturability == Capturability.NONE else 0.0
+            if self._timer >= self.config.to_policy_delay - 1e-9:
+                return self._to_policy(model, data, "not capturable by ankle, hip or steps "
+                                       f"for {self._timer:.3f} s")
+            alpha = self._alpha(t)
+            if alpha < 1.0:  # policy → QP hand-over still blending
+                q_ref = self.policy.update_targets(model, data)
+                q, qd = self.policy.joints(data)
+                torque = (1.0 - alpha) * pd_torque(q_ref, q, qd) + alpha * torque
+            return torque
+        diag = self.diagnostics = self.balance.assess(model, data)
+        cfg = self.config
+        standing = (diag.applicable and diag.capturability == Capturability.ZERO_STEP
+                    and diag.margin >= cfg.to_qp_margin
+                    and diag.com[2] >= cfg.to_qp_min_com_height
+                    and float(np.linalg.norm(diag.com_vel)) <= cfg.to_qp_max_com_speed)
+        self._timer = self._timer + dt if standing else 0.0
+        q_ref = self.policy.update_targets(model, data)
+        q, qd = self.policy.joints(data)
+        alpha = self._alpha(t)
+        policy_torque = pd_torque((1.0 - alpha) * self._q_switch + alpha * q_ref, q, qd)
+        if self._timer >= cfg.to_qp_dwell - 1e-9:
+            self.mode, self._timer, self._switch_time = QP, 0.0, t
+            self.events.append(Event(t, "to_qp", f"standing for {cfg.to_qp_dwell:.2f} s "
+                                     f"(margin {diag.margin:.3f} m)"))
+            self.balance.reset(model, data)
+            torque = self.balance(model, data)
+            return policy_torque * (1.0 - self._alpha(t)) + self._alpha(t) * torque
+        return policy_torque
+
+    def _to_policy(self, model: mujoco.MjModel, data: mujoco.MjData, reason: str) -> np.ndarray:
+        t = float(data.time)
+        self.mode, self._timer, self._switch_time = POLICY, 0.0, t
+        self.events.append(Event(t, "to_policy", reason))
+        self.policy.reset(model, data)
+        self._q_switch = self.policy.joints(data)[0].copy()
+        q_ref = self.policy.update_targets(model, data)
+        q, qd = self.policy.joints(data)
+        return pd_torque((1.0 - self._alpha(t)) * self._q_switch + self._alpha(t) * q_ref, q, qd)

@@ -1,0 +1,273 @@
+"""Torque-level whole-body QP over joint accelerations and sole-corner forces (proxsuite).
+
+Decision variables x = [q̈ (nv); ρ (16 per stance foot)]: each sole corner i carries a
+force f_i = B ρ_i, B (3, 4) the edges of the inner linearised friction pyramid
+(μ cos θ_k, μ sin θ_k, 1)/√(1 + μ²), θ_k = 0, π/2, π, 3π/2, so that ρ ≥ 0 is the friction
+cone and, with all corners, keeps the CoP inside the sole. With G = Σ_i J_iᵀ B (nv, ·),
+J_i the corner Jacobians, and S = [0 I] selecting the actuated rows:
+
+    min  Σ_k w_k ‖J_k q̈ − b_k‖² + w_q̈ ‖q̈‖² + w_ρ ‖ρ‖²
+    s.t. M_u q̈ − G_u ρ = −h_u                          (floating base, 6 rows)
+         J_foot q̈ = −J̇_foot q̇ − k_c v_foot            (each stance sole, 6 rows)
+         −τ_max ≤ M_a q̈ + h_a − G_a ρ ≤ τ_max          (27 torque rows)
+         q̈_lo ≤ q̈_a ≤ q̈_hi                            (joint position limits)
+         0 ≤ ρ ≤ ρ_max
+
+The joint-limit box keeps q + q̇ T + q̈ T²/2 inside the range shrunk by a margin, T the
+limit horizon: q̈_lo = 2 (q_lo + δ − q − q̇ T)/T², likewise q̈_hi.
+
+and τ = M_a q̈ + h_a − G_a ρ. One dense proxsuite QP object per contact mode (both,
+left or right sole), warm-started from its previous solution.
+
+Fallbacks (reported in :attr:`QpSolution.status`): ``"relaxed"`` — the torque rows and
+the joint-limit box are dropped and the torques clipped; ``"last_good"`` — the last good
+torques are repeated; ``"damping"`` — no good command yet: τ = −K_D q̇. Torques are
+always finite and inside ±τ_max.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+import proxsuite
+
+from hybrid_recovery.control.config import QpConfig
+from hybrid_recovery.control.robot_state import RobotState
+from hybrid_recovery.robot import constants
+
+_BIG = 1e10
+_SOLVED = proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED
+_WARM_START = proxsuite.proxqp.InitialGuess.WARM_START_WITH_PREVIOUS_RESULT
+_EQUALITY_GUESS = proxsuite.proxqp.InitialGuess.EQUALITY_CONSTRAINED_INITIAL_GUESS
+
+
+@dataclass
+class Task:
+    """A least-squares task w ‖J q̈ − b‖² on the joint accelerations.
+
+    Attributes:
+        name: For diagnostics.
+        jacobian: J, shape (k, nv).
+        target: b, shape (k,).
+        weight: w, a float or shape (k,).
+    """
+
+    name: str
+    jacobian: np.ndarray
+    target: np.ndarray
+    weight: float | np.ndarray
+
+
+@dataclass
+class QpSolution:
+    """One tick's command.
+
+    Attributes:
+        torque: τ in motor order, shape (27,) [N·m], finite, inside ±τ_max.
+        qacc: q̈ of the solution, shape (nv,); zeros for fallbacks without a QP solution.
+        corner_forces: f per (foot, corner), world frame, shape (2, 4, 3) [N].
+        status: ``"solved"``, ``"relaxed"``, ``"last_good"`` or ``"damping"``.
+        solve_time: Wall time of the proxsuite update + solve calls [s].
+        iterations: proxsuite iterations of the accepted solve (0 for fallbacks).
+    """
+
+    torque: np.ndarray
+    qacc: np.ndarray
+    corner_forces: np.ndarray
+    status: str
+    solve_time: float
+    iterations: int
+
+
+@dataclass
+class QpProblem:
+    """One nominal QP in proxsuite's form (for benchmarks):
+    min ½ xᵀ H x + gᵀ x  s.t.  A x = b,  lower ≤ C x ≤ upper,  box_lower ≤ x ≤ box_upper."""
+
+    stance: tuple[bool, bool]
+    hessian: np.ndarray
+    gradient: np.ndarray
+    a_eq: np.ndarray
+    b_eq: np.ndarray
+    c_in: np.ndarray
+    lower: np.ndarray
+    upper: np.ndarray
+    box_lower: np.ndarray
+    box_upper: np.ndarray
+
+    def args(self) -> tuple[np.ndarray, ...]:
+        """(H, g, A, b, C, l, u, l_box, u_box) in proxsuite's argument order."""
+        return (self.hessian, self.gradient, self.a_eq, self.b_eq, self.c_in, self.lower,
+                self.upper, self.box_lower, self.box_upper)
+
+
+def pyramid_basis(mu: float) -> np.ndarray:
+    """B, shape (3, 4): unit edges of the inner friction pyramid of a flat ground (z up)."""
+    theta = np.arange(4) * np.pi / 2
+    edges = np.stack([mu * np.cos(theta), mu * np.sin(theta), np.ones(4)])
+    return edges / np.sqrt(1.0 + mu * mu)
+
+
+class WholeBodyQP:
+    """The QP above for a robot with ``nv`` velocities and 27 actuated joints.
+
+    Args:
+        nv: Velocity dimension (6 + 27).
+        cfg: Weights, gains, limits and solver settings.
+        joint_range: Joint position limits (q_lo, q_hi) in motor order, shape (27, 2) [rad].
+    """
+
+    def __init__(self, nv: int, cfg: QpConfig, joint_range: np.ndarray) -> None:
+        if cfg.friction <= 0.0:
+            raise ValueError("QpConfig.friction must be > 0")
+        if cfg.torque_limit_scale <= 0.0:
+            raise ValueError("QpConfig.torque_limit_scale must be > 0")
+        self.nv, self.cfg = nv, cfg
+        self.basis = pyramid_basis(cfg.friction)
+        self.tau_max = constants.EFFORT_LIMITS * cfg.torque_limit_scale
+        joint_range = np.asarray(joint_range, dtype=float)
+        if joint_range.shape != (nv - 6, 2):
+            raise ValueError(f"joint_range must have shape ({nv - 6}, 2), got {joint_range.shape}")
+        self.q_lo = joint_range[:, 0] + cfg.limit_margin
+        self.q_hi = joint_range[:, 1] - cfg.limit_margin
+        # One dense QP per (stance, relaxed): the problem size depends on the stance.
+        self._qps: dict[tuple[tuple[bool, bool], bool], proxsuite.proxqp.dense.QP] = {}
+        self._fresh: dict[tuple[tuple[bool, bool], bool], bool] = {}
+        self.last_good: np.ndarray | None = None
+        self.recorder: list[QpProblem] | None = None
+        """Set to a list to record every nominal problem (benchmarks)."""
+
+    def reset(self) -> None:
+        """Forgets warm starts and the last good command."""
+        self._qps.clear()
+        self._fresh.clear()
+        self.last_good = None
+
+    # ------------------------------------------------------------------ problem
+    def _contact_map(self, state: RobotState, stance: tuple[bool, bool]) -> np.ndarray:
+        """G = Σ J_iᵀ B over the stance corners, shape (nv, 16 · #stance)."""
+        blocks = [np.einsum("kdn,dj->nkj", state.feet[s].corner_jacobians, self.basis
+                            ).reshape(self.nv, 16) for s in (0, 1) if stance[s]]
+        return np.concatenate(blocks, axis=1)
+
+    def _qp(self, key: tuple[tuple[bool, bool], bool], n: int, n_eq: int):
+        if key not in self._qps:
+            qp = proxsuite.proxqp.dense.QP(n, n_eq, self.nv - 6, True)
+            # The first solve starts from the equality-constrained guess (deterministic);
+            # warm starting is switched on after it (proxsuite 0.8 segfaults when warm start
+            # is requested between init and the first solve, and a warm start set before
+            # init starts from uninitialised memory).
+            qp.settings.initial_guess = _EQUALITY_GUESS
+            qp.settings.eps_abs = self.cfg.eps_abs
+            qp.settings.eps_rel = 0.0
+            qp.settings.max_iter = self.cfg.max_iter
+            qp.settings.max_iter_in = self.cfg.max_iter
+            qp.settings.verbose = False
+            self._qps[key] = qp
+            self._fresh[key] = True
+        return self._qps[key]
+
+    def solve(self, state: RobotState, tasks: list[Task], stance: tuple[bool, bool]
+              ) -> QpSolution:
+        """Solves the tick's QP, with the fallbacks of the module docstring.
+
+        Args:
+            state: The tick's :class:`RobotState`.
+            tasks: Least-squares tasks on q̈.
+            stance: Which soles are in contact (left, right); at least one.
+
+        Returns:
+            The :class:`QpSolution`.
+        """
+        if not any(stance):
+            raise ValueError("WholeBodyQP.solve needs at least one stance foot")
+        nv, cfg = self.nv, self.cfg
+        g_map = self._contact_map(state, stance)
+        nf = g_map.shape[1]
+        n = nv + nf
+        # Cost
+        rows = [np.sqrt(np.broadcast_to(np.asarray(t.weight, float), t.target.shape))[:, None]
+                * t.jacobian for t in tasks]
+        rhs = [np.sqrt(np.broadcast_to(np.asarray(t.weight, float), t.target.shape)) * t.target
+               for t in tasks]
+        jac, b = np.concatenate(rows), np.concatenate(rhs)
+        hess = np.zeros((n, n))
+        hess[:nv, :nv] = jac.T @ jac + cfg.w_qacc * np.eye(nv)
+        hess[nv:, nv:] = cfg.w_force * np.eye(nf)
+        grad = np.zeros(n)
+        grad[:nv] = -jac.T @ b
+        # Equalities: floating base, then stance soles
+        eq_rows = [np.hstack([state.mass_matrix[:6], -g_map[:6]])]
+        eq_rhs = [-state.bias[:6]]
+        for s in (0, 1):
+            if stance[s]:
+                foot = state.feet[s]
+                eq_rows.append(np.hstack([foot.jacobian, np.zeros((6, nf))]))
+                eq_rhs.append(-foot.bias_acc - cfg.contact_kd * foot.velocity)
+        a_eq, b_eq = np.concatenate(eq_rows), np.concatenate(eq_rhs)
+        # Torque rows
+        c_in = np.hstack([state.mass_matrix[6:], -g_map[6:]])
+        h_a = state.bias[6:]
+        lo, hi = -self.tau_max - h_a, self.tau_max - h_a
+        box_lo = np.concatenate([np.full(nv, -_BIG), np.zeros(nf)])
+        box_hi = np.concatenate([np.full(nv, _BIG), np.full(nf, cfg.max_corner_force)])
+        free_lo, free_hi = box_lo.copy(), box_hi.copy()
+        horizon = cfg.limit_horizon
+        q, qd = state.qpos[7:], state.qvel[6:]
+        box_lo[6:nv] = 2.0 * (self.q_lo - q - qd * horizon) / horizon**2
+        box_hi[6:nv] = 2.0 * (self.q_hi - q - qd * horizon) / horizon**2
+
+        start = time.perf_counter()
+        if not all(np.isfinite(arr).all() for arr in (hess, grad, a_eq, b_eq, c_in, lo, hi,
+                                                       box_lo, box_hi)):
+            return self.fallback(state)  # never hand NaN or inf to the solver
+        if self.recorder is not None:
+            self.recorder.append(QpProblem(stance, hess, grad, a_eq, b_eq, c_in, lo, hi,
+                                           box_lo, box_hi))
+        for relaxed in (False, True):
+            key = (stance, relaxed)
+            qp = self._qp(key, n, len(b_eq))
+            lo_k, hi_k = (np.full(nv - 6, -_BIG), np.full(nv - 6, _BIG)) if relaxed else (lo, hi)
+            blo, bhi = (free_lo, free_hi) if relaxed else (box_lo, box_hi)
+            if self._fresh[key]:
+                qp.init(hess, grad, a_eq, b_eq, c_in, lo_k, hi_k, blo, bhi)
+            else:
+                qp.update(hess, grad, a_eq, b_eq, c_in, lo_k, hi_k, blo, bhi)
+            qp.solve()
+            qp.settings.initial_guess = _WARM_START
+            x = qp.results.x
+            ok = qp.results.info.status == _SOLVED and np.all(np.isfinite(x))
+            self._fresh[key] = False
+            if not ok:  # a failed solve spoils the warm start: next time, a cold QP
+                del self._qps[key]
+            if ok:
+                solve_time = time.perf_counter() - start
+                torque = np.clip(c_in @ x + h_a, -constants.EFFORT_LIMITS,
+                                 constants.EFFORT_LIMITS)
+                if np.all(np.isfinite(torque)):
+                    self.last_good = torque.copy()
+                    return QpSolution(torque, x[:nv].copy(), self._forces(x[nv:], stance),
+                                      "relaxed" if relaxed else "solved", solve_time,
+                                      int(qp.results.info.iter))
+        solve_time = time.perf_counter() - start
+        return self.fallback(state, solve_time)
+
+    def fallback(self, state: RobotState, solve_time: float = 0.0) -> QpSolution:
+        """The last good command, else joint damping τ = −K_D q̇ (clipped)."""
+        if self.last_good is not None:
+            torque, status = self.last_good.copy(), "last_good"
+        else:
+            torque, status = -constants.KD * state.qvel[6:], "damping"
+        torque = np.clip(np.nan_to_num(torque), -constants.EFFORT_LIMITS,
+                         constants.EFFORT_LIMITS)
+        return QpSolution(torque, np.zeros(self.nv), np.zeros((2, 4, 3)), status, solve_time, 0)
+
+    def _forces(self, rho: np.ndarray, stance: tuple[bool, bool]) -> np.ndarray:
+        forces = np.zeros((2, 4, 3))
+        blocks = iter(rho.reshape(-1, 4, 4))
+        for s in (0, 1):
+            if stance[s]:
+                forces[s] = next(blocks) @ self.basis.T
+        return forces

@@ -1,0 +1,196 @@
+"""Hybrid supervisor: QP while capturable, the policy when down, back with hysteresis."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import onnx
+import pytest
+from onnx import TensorProto, helper
+
+from hybrid_recovery.control import (
+    BalanceController,
+    HybridSupervisor,
+    OnnxPolicy,
+    PolicyController,
+    SupervisorConfig,
+    load_torque_model,
+    standing_data,
+)
+from hybrid_recovery.control.policy_controller import imu_reading
+from hybrid_recovery.observation import ACTOR_OBS_DIM, actor_observation
+from hybrid_recovery.robot import constants
+
+
+def _linear_policy(path: Path, weight: np.ndarray, bias: np.ndarray, outputs: int = 27) -> Path:
+    """A stand-in exported policy: actions = obs @ W + b, input 'obs' [1, 87]."""
+    graph = helper.make_graph(
+        [helper.make_node("MatMul", ["obs", "W"], ["xw"]),
+         helper.make_node("Add", ["xw", "b"], ["actions"])],
+        "stand_in_policy",
+        [helper.make_tensor_value_info("obs", TensorProto.FLOAT, [1, ACTOR_OBS_DIM])],
+        [helper.make_tensor_value_info("actions", TensorProto.FLOAT, [1, outputs])],
+        initializer=[
+            helper.make_tensor("W", TensorProto.FLOAT, weight.shape, weight.ravel().tolist()),
+            helper.make_tensor("b", TensorProto.FLOAT, bias.shape, bias.ravel().tolist()),
+        ],
+    )
+    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)])
+    model.ir_version = 8
+    onnx.checker.check_model(model)
+    onnx.save(model, path)
+    return path
+
+
+@pytest.fixture(scope="module")
+def model() -> mujoco.MjModel:
+    return load_torque_model()
+
+
+@pytest.fixture(scope="module")
+def policy_path(tmp_path_factory) -> Path:
+    rng = np.random.default_rng(0)
+    weight = rng.normal(0.0, 1e-3, (ACTOR_OBS_DIM, 27)).astype(np.float32)
+    bias = np.zeros(27, np.float32)
+    return _linear_policy(tmp_path_factory.mktemp("policy") / "policy.onnx", weight, bias)
+
+
+def _lying(model: mujoco.MjModel, data: mujoco.MjData) -> None:
+    """Teleports the robot onto its back on the floor, at rest."""
+    data.qpos[:] = standing_data(model).qpos
+    data.qpos[2] = 0.25
+    data.qpos[3:7] = (np.cos(np.pi / 4), 0.0, -np.sin(np.pi / 4), 0.0)  # pitched back 90°
+    data.qvel[:] = 0.0
+    mujoco.mj_forward(model, data)
+
+
+def _standing(model: mujoco.MjModel, data: mujoco.MjData) -> None:
+    data.qpos[:] = standing_data(model).qpos
+    data.qvel[:] = 0.0
+    mujoco.mj_forward(model, data)
+
+
+def _run(model, data, controller, seconds: float) -> list[np.ndarray]:
+    out = []
+    for _ in range(round(seconds / model.opt.timestep)):
+        torque = controller(model, data)
+        assert np.all(np.isfinite(torque))
+        out.append(torque)
+        data.ctrl[:] = torque
+        mujoco.mj_step(model, data)
+    return out
+
+
+def test_onnx_policy_matches_the_graph(policy_path):
+    policy = OnnxPolicy(policy_path)
+    obs = np.linspace(-1.0, 1.0, ACTOR_OBS_DIM)
+    weight = onnx.numpy_helper.to_array(onnx.load(policy_path).graph.initializer[0])
+    np.testing.assert_allclose(policy(obs), obs.astype(np.float32) @ weight, atol=1e-6)
+
+
+def test_onnx_policy_errors(tmp_path):
+    missing = tmp_path / "none.onnx"
+    with pytest.raises(FileNotFoundError) as info:
+        OnnxPolicy(missing)
+    assert str(info.value) == f"ONNX policy not found: {missing}"
+    wrong = _linear_policy(tmp_path / "wrong.onnx", np.zeros((ACTOR_OBS_DIM, 5), np.float32),
+                           np.zeros(5, np.float32), outputs=5)
+    with pytest.raises(ValueError) as info:
+        OnnxPolicy(wrong)(np.zeros(ACTOR_OBS_DIM))
+    assert str(info.value) == "ONNX policy returned 5 actions, expected 27"
+    with pytest.raises(ValueError) as info:
+        OnnxPolicy(wrong)(np.zeros(3))
+    assert str(info.value) == "observation must have shape (87,), got (3,)"
+
+
+def test_policy_controller_uses_shared_observation_and_pd_law(model, policy_path):
+    data = standing_data(model)
+    data.qvel[6:] = np.linspace(-0.5, 0.5, 27)
+    mujoco.mj_forward(model, data)
+    seen = []
+    onnx_policy = OnnxPolicy(policy_path)
+
+    def spy(obs):
+        seen.append(obs)
+        return onnx_policy(obs)
+
+    controller = PolicyController(spy)
+    controller.reset(model, data)
+    torque = controller(model, data)
+    gyro, quat = imu_reading(model, data)
+    expected_obs = actor_observation(gyro[None], quat[None], data.qpos[None, 7:],
+                                     data.qvel[None, 6:], np.zeros((1, 27)))[0]
+    np.testing.assert_allclose(seen[0], expected_obs)
+    q_ref = constants.DEFAULT_JOINT_POS + 0.3 * onnx_policy(expected_obs)
+    expected = np.clip(constants.KP * (q_ref - data.qpos[7:]) - constants.KD * data.qvel[6:],
+                       -constants.EFFORT_LIMITS, constants.EFFORT_LIMITS)
+    np.testing.assert_allclose(torque, expected, rtol=1e-6, atol=1e-6)
+    controller(model, data)  # within the 20 ms period: no new action
+    assert len(seen) == 1
+
+
+def test_switches_to_policy_when_down_and_back_with_hysteresis(model, policy_path):
+    cfg = SupervisorConfig(to_qp_dwell=0.3, blend_time=0.1)
+    supervisor = HybridSupervisor.from_onnx(policy_path, config=cfg)
+    data = standing_data(model)
+    supervisor.reset(model, data)
+    assert supervisor.mode == "qp"
+    _run(model, data, supervisor, 0.1)
+    assert supervisor.mode == "qp" and supervisor.events == []
+
+    _lying(model, data)  # knocked down
+    _run(model, data, supervisor, 0.01)
+    assert supervisor.mode == "policy"
+    (down,) = supervisor.events
+    assert down.kind == "to_policy" and down.message.startswith("QP not applicable")
+
+    # Hysteresis: standing for less than the dwell time does not hand back...
+    _standing(model, data)
+    _run(model, data, supervisor, 0.2)
+    _lying(model, data)
+    _run(model, data, supervisor, 0.05)
+    assert supervisor.mode == "policy" and len(supervisor.events) == 1
+    # ...standing for longer does, once, after the dwell time.
+    _standing(model, data)
+    start = data.time
+    _run(model, data, supervisor, 0.5)
+    assert supervisor.mode == "qp"
+    back = supervisor.events[-1]
+    assert back.kind == "to_qp" and [e.kind for e in supervisor.events] == ["to_policy", "to_qp"]
+    assert back.time - start >= cfg.to_qp_dwell - model.opt.timestep
+
+
+def test_hand_over_to_the_qp_is_smooth(model, policy_path):
+    """Torque steps across the policy → QP switch stay small (torque blending)."""
+    cfg = SupervisorConfig(to_qp_dwell=0.2, blend_time=0.2)
+    supervisor = HybridSupervisor(BalanceController(),
+                                  PolicyController(OnnxPolicy(policy_path)), cfg)
+    data = standing_data(model)
+    supervisor.reset(model, data)
+    _lying(model, data)
+    _run(model, data, supervisor, 0.01)
+    _standing(model, data)
+    torques = np.array(_run(model, data, supervisor, 0.6))
+    assert supervisor.mode == "qp"
+    steps = np.abs(np.diff(torques, axis=0)) / constants.EFFORT_LIMITS
+    switch = round((supervisor.events[-1].time - 0.01) / model.opt.timestep)
+    assert steps[switch - 5: switch + 100].max() < 0.1
+
+
+def test_keeps_the_qp_while_a_step_captures_and_hands_over_when_none_does(model, policy_path):
+    from hybrid_recovery.control import Push, run_episode
+
+    supervisor = HybridSupervisor.from_onnx(policy_path)
+    result = run_episode(model, supervisor, 2.0, push=Push(np.array([300.0, 0.0, 0.0]), 0.3))
+    assert result.standing and supervisor.events == [] and supervisor.mode == "qp"
+    assert len(supervisor.balance.steps) == 1
+
+    result = run_episode(model, supervisor, 0.8, push=Push(np.array([700.0, 0.0, 0.0]), 0.3),
+                         keep_diagnostics=True)
+    (event,) = supervisor.events
+    assert event.kind == "to_policy"
+    assert event.message.startswith("not capturable by ankle, hip or steps")
+    # ...while the robot is still up: the hand-over comes before the fall.
+    assert result.diagnostics[round(event.time / model.opt.timestep) - 1].applicable
