@@ -1,1 +1,13 @@
-"""Hardware deployment: the Unitree low-level protocol, transport and runners."""
+"""Hardware deployment: the Unitree low-level protocol, transport and runners.
+
+* ``protocol``: ``LowCmd_``/``LowState_``, their CRC, the cyclonedds transport.
+* ``robot_io``: joint ↔ motor-slot map, :class:`RobotState`, :class:`JointCommand`.
+* ``wire`` / ``fast_dds``: the messages as DDS wire bytes (the fast 500 Hz path).
+* ``limits`` / ``state_machine``: the safety layer (pure logic, no I/O).
+* ``policy_runner``: the ONNX policy on the training observation builder.
+* ``sim_robot`` / ``bridge``: a simulated H1-2 and the controller loop over DDS.
+* ``sim2sim`` / ``balance_trace``: the policy in MuJoCo with a video and balance trace.
+* ``bench`` / ``timing`` / ``stand_in``: loop timing, its benchmark, stand-in policies.
+
+Nothing is imported here: ``protocol`` must stay importable without MuJoCo or torch.
+"""

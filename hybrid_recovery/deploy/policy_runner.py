@@ -1,0 +1,105 @@
+"""The ONNX policy at 50 Hz: the training observation in, joint targets out.
+
+The observation is built by :func:`hybrid_recovery.observation.actor_observation`, the
+builder the environment uses (STYLE §4): torso IMU angular velocity and orientation as
+``LowState_.imu_state`` gives them, q − q*, q̇ and the last action. As in
+:class:`~hybrid_recovery.envs.RecoveryEnv`, the action is clipped to ±``ACTION_CLIP``, the
+clipped action is the next observation's ``last_action``, and the joint targets are
+q_ref = q* + scale · a (``policy.json``'s action scale). The PD law
+τ = kp (q_ref − q) − kd q̇ runs in the motor drivers (or MuJoCo's position actuators).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from hybrid_recovery.deploy.robot_io import RobotState
+from hybrid_recovery.deploy.state_machine import PolicyOutput
+from hybrid_recovery.observation import ACTOR_OBS_DIM, actor_observation
+from hybrid_recovery.robot import constants
+
+ACTION_CLIP = 10.0
+"""|a| bound applied before q_ref = q* + scale · a, as in training (``RecoveryEnv``)."""
+
+
+class PolicyMismatchError(ValueError):
+    """The policy does not fit this robot or this runner; the message says why."""
+
+
+class PolicyRunner:
+    """Runs ``policy.onnx`` with onnxruntime after checking ``policy.json``.
+
+    Args:
+        policy_dir: Directory with ``policy.onnx`` and ``policy.json`` (from ``export``).
+        period_s: This runner's control period [s]; must equal the policy's.
+        threads: onnxruntime intra-op threads (1 keeps the loop's timing predictable).
+
+    Raises:
+        FileNotFoundError: ``policy.json`` or ``policy.onnx`` is missing.
+        PolicyMismatchError: the description or the network does not match the robot
+            constants, the observation layout or the control period.
+    """
+
+    def __init__(self, policy_dir: str | Path, period_s: float = 0.02, threads: int = 1) -> None:
+        import onnxruntime as ort
+
+        from hybrid_recovery.training.export import load_policy_description
+
+        self.policy_dir = policy_dir = Path(policy_dir)
+        try:
+            desc = load_policy_description(policy_dir / "policy.json")
+        except ValueError as err:
+            raise PolicyMismatchError(f"refusing policy {policy_dir}: {err}") from err
+        self._refuse_unless(np.allclose(desc["effort_limits"], constants.EFFORT_LIMITS),
+                            "effort_limits differ from the robot constants")
+        self._refuse_unless(abs(desc["control_period_s"] - period_s) < 1e-9,
+                            f"it was trained at a control period of {desc['control_period_s']} "
+                            f"s, this runner runs at {period_s} s")
+        onnx = policy_dir / "policy.onnx"
+        if not onnx.is_file():
+            raise FileNotFoundError(f"policy network not found: {onnx}")
+        options = ort.SessionOptions()
+        options.intra_op_num_threads = options.inter_op_num_threads = threads
+        options.execution_mode = ort.ExecutionMode.ORT_SEQUENTIAL
+        self.session = ort.InferenceSession(str(onnx), options,
+                                            providers=["CPUExecutionProvider"])
+        inputs, outputs = self.session.get_inputs(), self.session.get_outputs()
+        self._refuse_unless(len(inputs) == 1 and inputs[0].shape[-1] == ACTOR_OBS_DIM,
+                            f"policy.onnx takes {[i.shape for i in inputs]}, expected one "
+                            f"input [1, {ACTOR_OBS_DIM}]")
+        self._refuse_unless(outputs[0].shape[-1] == constants.NUM_JOINTS,
+                            f"policy.onnx returns {outputs[0].shape}, expected "
+                            f"[1, {constants.NUM_JOINTS}]")
+        self._input, self._output = inputs[0].name, outputs[0].name
+        self.description = desc
+        self.action_scale = float(desc["action"]["scale"])
+        self.last_action = np.zeros(constants.NUM_JOINTS)
+
+    def _refuse_unless(self, ok: bool, why: str) -> None:
+        if not ok:
+            raise PolicyMismatchError(f"refusing policy {self.policy_dir}: {why}")
+
+    def reset(self) -> None:
+        """Start of an episode: a_{t−1} = 0."""
+        self.last_action = np.zeros(constants.NUM_JOINTS)
+
+    def observation(self, state: RobotState) -> np.ndarray:
+        """o_t from a robot state and the last action, shape (87,), float32."""
+        return actor_observation(state.gyro[None], state.quat[None], state.q[None],
+                                 state.dq[None], self.last_action[None])[0]
+
+    def infer(self, obs: np.ndarray) -> np.ndarray:
+        """The network's action for o_t, shape (27,) (no clipping)."""
+        batch = np.asarray(obs, dtype=np.float32).reshape(1, ACTOR_OBS_DIM)
+        return self.session.run([self._output], {self._input: batch})[0][0].astype(float)
+
+    def step(self, state: RobotState) -> PolicyOutput:
+        """One control step: o_t, a_t, and q_ref = q* + scale · clip(a_t); remembers a_t."""
+        obs = self.observation(state)
+        action = self.infer(obs)
+        clipped = np.clip(action, -ACTION_CLIP, ACTION_CLIP)
+        self.last_action = clipped
+        q_ref = constants.DEFAULT_JOINT_POS + self.action_scale * clipped
+        return PolicyOutput(obs=obs, action=action, q_ref=q_ref)

@@ -1,0 +1,181 @@
+"""Sim-to-sim: the exported ONNX policy in MuJoCo at 1 kHz physics / 50 Hz control.
+
+The same pieces as on the robot, without DDS: :class:`~.policy_runner.PolicyRunner` (the
+training observation builder), :class:`~.state_machine.SafetyStateMachine` (faults →
+damping) and the motor-driver PD of :class:`~.sim_robot.SimRobot` (MuJoCo position
+actuators with constants.KP/KD from the command). Any H1-2 MJCF loads: the project's own
+(default) or the manufacturer's mesh model. Start poses are settled as in training
+(:func:`hybrid_recovery.envs.initial_states.settle_pool`); a torso push and an actuation
+delay can be added. Writes ``trace.csv``, ``trace.png``, ``summary.json`` and, with a
+renderer, ``video.mp4``.
+
+Video needs an OpenGL backend: set ``MUJOCO_GL=egl`` (or ``osmesa``) before mujoco is
+imported (the ``sim2sim`` command does).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections import deque
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+from hybrid_recovery.deploy.balance_trace import BalanceTrace
+from hybrid_recovery.deploy.limits import SafetyLimits
+from hybrid_recovery.deploy.policy_runner import PolicyRunner
+from hybrid_recovery.deploy.robot_io import JointCommand
+from hybrid_recovery.deploy.sim_robot import SimRobot, SimRobotConfig, implicit_pd_model
+from hybrid_recovery.deploy.state_machine import Phase, SafetyConfig, SafetyStateMachine
+from hybrid_recovery.dynamics import RobotModel
+from hybrid_recovery.envs.initial_states import POSES, settle_pool
+from hybrid_recovery.observation import projected_gravity
+
+UPRIGHT_COM_HEIGHT = 0.85
+"""CoM height counted as upright [m] (the env's ``upright_height``)."""
+
+
+@dataclass
+class Sim2SimConfig:
+    """A sim-to-sim run."""
+
+    model_path: str | None = None
+    """H1-2 MJCF; None for the project's own."""
+    pose: str = "standing"
+    """Start pose, one of ``initial_states.POSES``, settled for its settle time."""
+    seconds: float = 10.0
+    push_force: float = 0.0
+    """Horizontal force on the torso [N]; 0 for none."""
+    push_direction_deg: float = 0.0
+    """Direction of the push in the world x–y plane [deg] (0 = +x, the robot's front)."""
+    push_time: float = 2.0
+    """[s] after the start."""
+    push_duration: float = 0.2
+    """[s]."""
+    delay_s: float = 0.0
+    """Actuation delay between a command and its use by the motors [s] (training: 10–40 ms)."""
+    startup: bool = False
+    """Run the hardware start-up (zero torque → interpolate → hold) before the policy;
+    by default the policy acts from the start pose (the safety monitors still run)."""
+    video: bool = True
+    fps: int = 25
+    width: int = 480
+    height: int = 360
+    seed: int = 0
+
+
+def start_state(model_path: str | None, pose: str, physics_dt: float,
+                seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+    """A settled (qpos, qvel) of ``pose`` on the given model (no joint noise)."""
+    if pose not in POSES:
+        raise ValueError(f"pose must be one of {POSES}, got {pose!r}")
+    model, _ = implicit_pd_model(model_path, physics_dt)
+    pool = settle_pool(model, per_pose=1, rng=np.random.default_rng(seed), joint_noise=0.0,
+                       nthread=1)
+    qpos, qvel = pool[pose]
+    return qpos[0], qvel[0]
+
+
+def run_sim2sim(policy_dir: str | Path, out_dir: str | Path,
+                cfg: Sim2SimConfig | None = None) -> dict:
+    """Runs the policy, writes the trace, plot, summary and video; returns the summary."""
+    cfg = cfg or Sim2SimConfig()
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    runner = PolicyRunner(policy_dir)
+    robot_cfg = SimRobotConfig(model_path=cfg.model_path, physics_dt=0.001)
+    qpos, qvel = start_state(cfg.model_path, cfg.pose, robot_cfg.physics_dt, cfg.seed)
+    robot = SimRobot(robot_cfg, qpos, qvel)
+    safety = SafetyConfig(SafetyLimits.from_robot(cfg.model_path), skip_startup=not cfg.startup)
+    sm = SafetyStateMachine(safety)
+    trace = BalanceTrace(RobotModel(robot.model))
+    decimation = round(safety.period_s / robot_cfg.physics_dt)
+    delay_steps = round(cfg.delay_s / robot_cfg.physics_dt)
+    pending: deque[tuple[int, JointCommand]] = deque()
+    angle = math.radians(cfg.push_direction_deg)
+    push_vec = cfg.push_force * np.array([math.cos(angle), math.sin(angle), 0.0])
+    video = _Video(robot, cfg) if cfg.video else None
+    steps = round(cfg.seconds / robot_cfg.physics_dt)
+    for k in range(steps):
+        if k % decimation == 0:
+            state = robot.state()
+            policy = runner.step(state) if sm.phase is Phase.POLICY else None
+            before = sm.phase
+            cmd = sm.tick(robot.time, state, policy)
+            if sm.phase is Phase.POLICY and before is not Phase.POLICY:
+                runner.reset()
+            if cmd is not None:
+                pending.append((k + delay_steps, cmd))
+            d = robot.data
+            trace.record(robot.time, sm.phase.value, d.qpos, d.qvel,
+                         projected_gravity(state.quat), float(np.linalg.norm(robot.push)))
+        while pending and pending[0][0] <= k:
+            robot.apply_command(pending.popleft()[1])
+        pushing = cfg.push_time <= robot.time < cfg.push_time + cfg.push_duration
+        robot.push = push_vec if pushing else np.zeros(3)
+        robot.step(1)
+        if video is not None:
+            video.maybe_capture()
+    summary = _summary(trace, sm, cfg)
+    trace.write_csv(out / "trace.csv")
+    title = f"{Path(cfg.model_path).name if cfg.model_path else 'own model'}, {cfg.pose}"
+    if cfg.push_force:
+        title += f", push {cfg.push_force:.0f} N"
+    trace.plot(out / "trace.png", title)
+    if video is not None:
+        summary["video"] = video.write(out / "video.mp4")
+    (out / "summary.json").write_text(json.dumps(summary, indent=2))
+    return summary
+
+
+def _summary(trace: BalanceTrace, sm: SafetyStateMachine, cfg: Sim2SimConfig) -> dict:
+    com_z, tilt, t = trace.column("com_z"), trace.column("tilt_deg"), trace.column("t")
+    upright = com_z > UPRIGHT_COM_HEIGHT
+    first_up = float(t[np.argmax(upright)]) if upright.any() else None
+    return {
+        "config": asdict(cfg), "fault": None if sm.fault is None else sm.fault.value,
+        "fault_detail": sm.fault_detail, "final_phase": sm.phase.value,
+        "final_com_height": float(com_z[-1]), "min_com_height": float(com_z.min()),
+        "max_tilt_deg": float(tilt.max()), "final_tilt_deg": float(tilt[-1]),
+        "upright_at_end": bool(upright[-1]), "first_upright_time": first_up,
+        "transitions": [(tt, p.value, why) for tt, p, why in sm.transitions],
+    }
+
+
+class _Video:
+    """Frames of :class:`hybrid_recovery.envs.render.BalanceRenderer` (robot, CoM, capture
+    point, support polygons, push arrow) at ``fps``, written with imageio."""
+
+    def __init__(self, robot: SimRobot, cfg: Sim2SimConfig) -> None:
+        from hybrid_recovery.envs.render import BalanceRenderer
+
+        self.robot, self.dt = robot, 1.0 / cfg.fps
+        self.frames: list = []
+        self.next_t = 0.0
+        self.error = ""
+        try:
+            self.renderer: BalanceRenderer | None = BalanceRenderer(
+                cfg.model_path, cfg.width, cfg.height)
+        except RuntimeError as err:  # no OpenGL backend: keep the run, say why
+            self.renderer, self.error = None, f"no video: {err}"
+
+    def maybe_capture(self) -> None:
+        from hybrid_recovery.envs.render import balance_overlay
+
+        if self.renderer is None or self.robot.time + 1e-9 < self.next_t:
+            return
+        self.next_t += self.dt
+        robot = self.robot
+        overlay = balance_overlay(robot.model, robot.data, robot.push)
+        self.frames.append(self.renderer.frame(robot.data.qpos, overlay, self.dt).copy())
+
+    def write(self, path: Path) -> str:
+        if self.renderer is None or not self.frames:
+            return self.error or "no frames"
+        import imageio.v2 as imageio
+
+        self.renderer.close()
+        imageio.mimwrite(path, self.frames, fps=round(1.0 / self.dt), macro_block_size=8)
+        return str(path)
