@@ -46,7 +46,9 @@ class StuckLow:
 
     def __init__(self, num_envs: int, duration: float, rise: float, dt: float = 0.02) -> None:
         self.duration, self.rise, self.dt = duration, rise, dt
-        self.window = max(1, int(round(duration / dt))) + 1  # samples spanning [t − T, t]
+        self.enabled = bool(np.isfinite(duration))  # duration = inf switches it off
+        steps = int(round(duration / dt)) if self.enabled else 0
+        self.window = max(1, steps) + 1  # samples spanning [t − T, t]
         self.heights = np.zeros((num_envs, self.window))
         self.steps = np.zeros(num_envs, dtype=int)
 
@@ -60,4 +62,4 @@ class StuckLow:
         self.heights[:, self.steps % self.window] = height
         self.steps += 1
         full = self.steps >= self.window
-        return low & full & (height - self.heights.min(axis=1) < self.rise)
+        return low & full & self.enabled & (height - self.heights.min(axis=1) < self.rise)
