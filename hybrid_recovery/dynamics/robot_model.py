@@ -115,6 +115,7 @@ class RobotModel:
             if a is None:
                 hg = pin.computeCentroidalMomentum(model, data, q[i], v[i])
             else:
+                assert acc is not None
                 dhg = pin.computeCentroidalMomentumTimeVariation(model, data, q[i], v[i], a[i])
                 acc[i] = dhg.linear / self.mass
                 hg = data.hg

@@ -99,7 +99,10 @@ def build_scene(path: str | Path | None = None, timestep: float = 0.005):
         adr = int(model.sensor_adr[sid])
         return slice(adr, adr + int(model.sensor_dim[sid]))
 
-    adr, slot, found, groups = [], [], [], {}
+    adr: list[int] = []
+    slot: list[int] = []
+    found: list[int] = []
+    groups: dict[str, list[int]] = {}
     for group, name, slots in contact_names:
         start = span(name).start
         first = len(adr)

@@ -16,6 +16,7 @@ import numpy as np
 
 from hybrid_recovery.observation import actor_observation
 from hybrid_recovery.observation.mujoco_source import ProprioceptionMap, read_proprioception
+from hybrid_recovery.policy import OnnxPolicy, clip_action, joint_targets
 from hybrid_recovery.robot import constants
 
 
@@ -37,7 +38,7 @@ class ZeroController:
 
 
 class OnnxPolicyController:
-    """An exported policy at 50 Hz: shared observation builder, targets q* + s·a, delay.
+    """An exported policy at 50 Hz: shared observation builder, targets q* + s·clip(a), delay.
 
     Args:
         path: ``policy.onnx`` or the directory holding it and ``policy.json``.
@@ -48,20 +49,12 @@ class OnnxPolicyController:
     physics_dt = 0.005
 
     def __init__(self, path: str | Path, delay: float = 0.02) -> None:
-        import onnxruntime as ort
-
-        from hybrid_recovery.training.export import load_policy_description
-
-        path = Path(path)
-        onnx_path = path / "policy.onnx" if path.is_dir() else path
-        desc = load_policy_description(onnx_path.with_name("policy.json"))
-        options = ort.SessionOptions()
-        options.intra_op_num_threads = 1
-        self.session = ort.InferenceSession(str(onnx_path), options)
-        self.scale = float(desc["action"]["scale"])
-        self.period = float(desc["control_period_s"])
+        self.policy = OnnxPolicy(path, require_description=True)
+        assert self.policy.description is not None and self.policy.action_scale is not None
+        self.scale = self.policy.action_scale
+        self.period = float(self.policy.description["control_period_s"])
         self.delay = delay
-        self.name = f"onnx:{onnx_path}"
+        self.name = f"onnx:{self.policy.path}"
 
     def reset(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         self.where = ProprioceptionMap.of(model)
@@ -77,11 +70,10 @@ class OnnxPolicyController:
         if self.step % self.decimation == 0:
             gyro, quat, q, dq = read_proprioception(model, data, self.where)
             obs = actor_observation(gyro[None], quat[None], q[None], dq[None],
-                                    self.last_action[None])
-            action = self.session.run(["actions"], {"obs": obs})[0][0].astype(float)
-            self.last_action = action
-            self.pending.append((self.step + self.delay_steps,
-                                 constants.DEFAULT_JOINT_POS + self.scale * action))
+                                    self.last_action[None])[0]
+            action = self.policy(obs)
+            self.last_action = clip_action(action)
+            self.pending.append((self.step + self.delay_steps, joint_targets(action, self.scale)))
         while self.pending and self.pending[0][0] <= self.step:
             self.target = self.pending.popleft()[1]
         self.step += 1

@@ -162,7 +162,7 @@ def capture_point_figure(trace: dict, push_time: float, path: Path, title: str =
     ax.plot(com[:, 0], com[:, 1], color="tab:red", lw=1, label="CoM projection")
     k0 = int(np.searchsorted(t, push_time))
     if k0 < len(t):
-        ax.scatter(*cp[k0], marker="x", color="k", s=60, label="push")
+        ax.scatter(cp[k0, 0], cp[k0, 1], marker="x", color="k", s=60, label="push")
     fig.colorbar(sc, ax=ax, label="t [s]")
     ax.set_aspect("equal")
     ax.set_xlabel("x [m]")

@@ -6,6 +6,7 @@ import json
 import multiprocessing as mp
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 from hybrid_recovery.evaluation.controllers import make_controller
@@ -73,7 +74,7 @@ def run_protocol(scenarios: list[Scenario], controller: str, results: str | Path
             out.write("\n")  # end a line torn by a killed run
         if workers <= 1:
             _init_worker(controller, model_path, contact)
-            rows = map(_work, todo)
+            rows: Iterator[dict] = map(_work, todo)
             pool = None
         else:
             pool = mp.get_context("fork").Pool(workers, _init_worker,

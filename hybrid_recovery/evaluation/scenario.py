@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -83,7 +84,7 @@ def sweep_protocol(trials_per_cell: int = 1, seed: int = 0,
 
 
 def pushes_protocol(trials_per_force: int = 1, seed: int = 0,
-                    forces: tuple[float, ...] = tuple(float(f) for f in range(50, 501, 50)),
+                    forces: tuple[float, ...] = SWEEP_FORCES[1:],
                     directions: tuple[str, ...] = tuple(SWEEP_DIRECTIONS),
                     duration: float = 6.0) -> list[Scenario]:
     """Standing push hierarchy: pushes at the CoM height, 0.1 s, each direction."""
@@ -92,7 +93,9 @@ def pushes_protocol(trials_per_force: int = 1, seed: int = 0,
             for force, d, k in itertools.product(forces, directions, range(trials_per_force))]
 
 
-PROTOCOLS = {"poses": poses_protocol, "sweep": sweep_protocol, "pushes": pushes_protocol}
+PROTOCOLS: dict[str, Callable[..., list[Scenario]]] = {
+    "poses": poses_protocol, "sweep": sweep_protocol, "pushes": pushes_protocol}
+"""Protocol name → scenario generator."""
 
 
 def check_pose(pose: str) -> None:

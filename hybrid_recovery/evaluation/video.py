@@ -21,7 +21,8 @@ def render_trial(controller, scenario: Scenario, path: str | Path, seconds: floa
 
     every = max(1, round(1.0 / (fps * RECORD_DT)))
     renderer = BalanceRenderer(model_path)
-    frames, count = [], [0]
+    frames: list = []
+    count = [0]
 
     def grab(model, data, push) -> None:
         if count[0] % every == 0:
