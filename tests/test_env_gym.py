@@ -10,7 +10,7 @@ from gymnasium.utils.env_checker import check_env
 
 from hybrid_recovery.envs import default_config
 from hybrid_recovery.envs.gym_env import ACTION_BOUND, RecoveryGymEnv
-from hybrid_recovery.envs.recovery_env import _ACTION_CLIP
+from hybrid_recovery.policy import ACTION_CLIP
 
 EPISODE_STEPS = 10
 
@@ -35,7 +35,7 @@ def test_gymnasium_env_checker(genv):
 def test_spaces(genv):
     assert genv.observation_space.shape == (87,)
     assert genv.action_space.shape == (27,)
-    assert ACTION_BOUND == _ACTION_CLIP
+    assert ACTION_BOUND == ACTION_CLIP
 
 
 def test_seeded_reset_is_reproducible_and_carries_the_critic(genv):

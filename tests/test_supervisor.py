@@ -19,8 +19,8 @@ from hybrid_recovery.control import (
     load_torque_model,
     standing_data,
 )
-from hybrid_recovery.control.policy_controller import imu_reading
 from hybrid_recovery.observation import ACTOR_OBS_DIM, actor_observation
+from hybrid_recovery.observation.mujoco_source import ProprioceptionMap, read_proprioception
 from hybrid_recovery.robot import constants
 
 
@@ -119,7 +119,7 @@ def test_policy_controller_uses_shared_observation_and_pd_law(model, policy_path
     controller = PolicyController(spy)
     controller.reset(model, data)
     torque = controller(model, data)
-    gyro, quat = imu_reading(model, data)
+    gyro, quat, *_ = read_proprioception(model, data, ProprioceptionMap.of(model))
     expected_obs = actor_observation(gyro[None], quat[None], data.qpos[None, 7:],
                                      data.qvel[None, 6:], np.zeros((1, 27)))[0]
     np.testing.assert_allclose(seen[0], expected_obs)

@@ -16,11 +16,11 @@ from hybrid_recovery.control.config import (
 )
 from hybrid_recovery.control.diagnostics import Capturability, Event, Strategy, TickDiagnostics
 from hybrid_recovery.control.eval_adapter import eval_controller
-from hybrid_recovery.control.onnx_policy import OnnxPolicy
 from hybrid_recovery.control.policy_controller import PolicyController
 from hybrid_recovery.control.rollout import Push, SensorNoise, run_episode, standing_data
 from hybrid_recovery.control.supervisor import HybridSupervisor
 from hybrid_recovery.control.torque_model import CONTROL_DT, load_torque_model, torque_spec
+from hybrid_recovery.policy import OnnxPolicy
 
 __all__ = [
     "CONTROL_DT",

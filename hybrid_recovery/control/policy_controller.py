@@ -1,8 +1,9 @@
 """The learned policy as a torque controller: 50 Hz actions, PD law every physics step.
 
 Every ``policy_dt`` the observation o_t = ``actor_observation(ω_IMU, q_IMU, q, q̇,
-a_{t−1})`` (the shared builder) goes through the policy; the joint targets are
-q_ref = q* + 0.3 a_t and every physics step τ = clip(K_P (q_ref − q) − K_D q̇, ±τ_max)
+a_{t−1})`` (the shared builder, on :func:`read_proprioception`) goes through the policy;
+the joint targets are q_ref = q* + 0.3 clip(a_t, ±10) (:func:`joint_targets`, as in
+training) and every physics step τ = clip(K_P (q_ref − q) − K_D q̇, ±τ_max)
 with ``constants.KP``/``KD`` — the law of the position servos of
 :func:`hybrid_recovery.robot.mjcf.load_mjmodel`, written out so that the policy runs on
 the torque model shared with the QP controller.
@@ -16,17 +17,9 @@ import mujoco
 import numpy as np
 
 from hybrid_recovery.observation import actor_observation
+from hybrid_recovery.observation.mujoco_source import ProprioceptionMap, read_proprioception
+from hybrid_recovery.policy.action import clip_action, joint_targets
 from hybrid_recovery.robot import constants
-
-
-def imu_reading(model: mujoco.MjModel, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
-    """Torso IMU (site ``imu``): angular velocity in its frame [rad/s] (3,), quaternion (4,)."""
-    site = model.site("imu").id
-    vel = np.zeros(6)
-    mujoco.mj_objectVelocity(model, data, mujoco.mjtObj.mjOBJ_SITE, site, vel, 1)
-    quat = np.zeros(4)
-    mujoco.mju_mat2Quat(quat, data.site_xmat[site])
-    return vel[:3], quat
 
 
 def pd_torque(q_ref: np.ndarray, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
@@ -40,13 +33,13 @@ class PolicyController:
 
     Args:
         policy: Maps o_t (87,) to a_t (27,), e.g. an
-            :class:`hybrid_recovery.control.onnx_policy.OnnxPolicy`.
+            :class:`hybrid_recovery.policy.OnnxPolicy`.
         policy_dt: Action period [s] (50 Hz).
         action_scale: q_ref = q* + scale · a [rad].
 
     Attributes:
         q_ref: The current joint targets, shape (27,) [rad].
-        last_action: a_{t−1}, shape (27,).
+        last_action: a_{t−1} (clipped), shape (27,).
     """
 
     def __init__(self, policy: Callable[[np.ndarray], np.ndarray], policy_dt: float = 0.02,
@@ -57,32 +50,32 @@ class PolicyController:
         self.q_ref = constants.DEFAULT_JOINT_POS.copy()
         self.last_action = np.zeros(constants.NUM_JOINTS)
         self._next_time = -np.inf
-        self._qadr = self._dadr = None
+        self._where: ProprioceptionMap | None = None
 
     def reset(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         """Zero last action; the first action is taken at the next call."""
-        ids = [model.joint(n).id for n in constants.JOINT_NAMES]
-        self._qadr, self._dadr = model.jnt_qposadr[ids], model.jnt_dofadr[ids]
+        self._where = ProprioceptionMap.of(model)
         self.last_action = np.zeros(constants.NUM_JOINTS)
         self.q_ref = constants.DEFAULT_JOINT_POS.copy()
         self._next_time = -np.inf
 
     def joints(self, data: mujoco.MjData) -> tuple[np.ndarray, np.ndarray]:
         """(q, q̇) in motor order."""
-        return data.qpos[self._qadr], data.qvel[self._dadr]
+        assert self._where is not None, "reset() first"
+        return data.qpos[self._where.qadr], data.qvel[self._where.dadr]
 
     def update_targets(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
         """Runs the policy when its period is due; returns q_ref (27,) [rad]."""
-        if self._qadr is None:
+        if self._where is None:
             self.reset(model, data)
+            assert self._where is not None
         if data.time >= self._next_time - 1e-9:
-            gyro, quat = imu_reading(model, data)
-            q, qd = self.joints(data)
+            gyro, quat, q, qd = read_proprioception(model, data, self._where)
             obs = actor_observation(gyro[None], quat[None], q[None], qd[None],
                                     self.last_action[None])[0]
-            action = np.asarray(self.policy(obs), dtype=float)
-            self.q_ref = constants.DEFAULT_JOINT_POS + self.action_scale * action
-            self.last_action = action
+            action = self.policy(obs)
+            self.q_ref = joint_targets(action, self.action_scale)
+            self.last_action = clip_action(action)
             self._next_time = data.time + self.policy_dt
         return self.q_ref
 

@@ -29,8 +29,8 @@ import numpy as np
 from hybrid_recovery.control.balance_controller import BalanceController, check_state
 from hybrid_recovery.control.config import BalanceConfig, SupervisorConfig
 from hybrid_recovery.control.diagnostics import Capturability, Event, TickDiagnostics
-from hybrid_recovery.control.onnx_policy import OnnxPolicy
 from hybrid_recovery.control.policy_controller import PolicyController, pd_torque
+from hybrid_recovery.policy import OnnxPolicy
 
 QP, POLICY = "qp", "policy"
 

@@ -2,11 +2,13 @@
 
 The observation is built by :func:`hybrid_recovery.observation.actor_observation`, the
 builder the environment uses (STYLE §4): torso IMU angular velocity and orientation as
-``LowState_.imu_state`` gives them, q − q*, q̇ and the last action. As in
+``LowState_.imu_state`` gives them, q − q*, q̇ and the last action. The network runs in
+:class:`hybrid_recovery.policy.OnnxPolicy`; as in
 :class:`~hybrid_recovery.envs.RecoveryEnv`, the action is clipped to ±``ACTION_CLIP``, the
 clipped action is the next observation's ``last_action``, and the joint targets are
-q_ref = q* + scale · a (``policy.json``'s action scale). The PD law
-τ = kp (q_ref − q) − kd q̇ runs in the motor drivers (or MuJoCo's position actuators).
+q_ref = q* + scale · a (:func:`hybrid_recovery.policy.joint_targets`, ``policy.json``'s
+action scale). The PD law τ = kp (q_ref − q) − kd q̇ runs in the motor drivers (or
+MuJoCo's position actuators). No torch is imported.
 """
 
 from __future__ import annotations
@@ -17,11 +19,11 @@ import numpy as np
 
 from hybrid_recovery.deploy.robot_io import RobotState
 from hybrid_recovery.deploy.state_machine import PolicyOutput
-from hybrid_recovery.observation import ACTOR_OBS_DIM, actor_observation
+from hybrid_recovery.observation import actor_observation
+from hybrid_recovery.policy import ACTION_CLIP, OnnxPolicy, clip_action, joint_targets
 from hybrid_recovery.robot import constants
 
-ACTION_CLIP = 10.0
-"""|a| bound applied before q_ref = q* + scale · a, as in training (``RecoveryEnv``)."""
+__all__ = ["ACTION_CLIP", "PolicyMismatchError", "PolicyRunner"]
 
 
 class PolicyMismatchError(ValueError):
@@ -43,38 +45,21 @@ class PolicyRunner:
     """
 
     def __init__(self, policy_dir: str | Path, period_s: float = 0.02, threads: int = 1) -> None:
-        import onnxruntime as ort
-
-        from hybrid_recovery.training.export import load_policy_description
-
         self.policy_dir = policy_dir = Path(policy_dir)
         try:
-            desc = load_policy_description(policy_dir / "policy.json")
+            self.policy = OnnxPolicy(policy_dir / "policy.onnx", threads,
+                                     require_description=True)
         except ValueError as err:
             raise PolicyMismatchError(f"refusing policy {policy_dir}: {err}") from err
+        desc = self.policy.description
+        assert desc is not None and self.policy.action_scale is not None  # required above
         self._refuse_unless(np.allclose(desc["effort_limits"], constants.EFFORT_LIMITS),
                             "effort_limits differ from the robot constants")
         self._refuse_unless(abs(desc["control_period_s"] - period_s) < 1e-9,
                             f"it was trained at a control period of {desc['control_period_s']} "
                             f"s, this runner runs at {period_s} s")
-        onnx = policy_dir / "policy.onnx"
-        if not onnx.is_file():
-            raise FileNotFoundError(f"policy network not found: {onnx}")
-        options = ort.SessionOptions()
-        options.intra_op_num_threads = options.inter_op_num_threads = threads
-        options.execution_mode = ort.ExecutionMode.ORT_SEQUENTIAL
-        self.session = ort.InferenceSession(str(onnx), options,
-                                            providers=["CPUExecutionProvider"])
-        inputs, outputs = self.session.get_inputs(), self.session.get_outputs()
-        self._refuse_unless(len(inputs) == 1 and inputs[0].shape[-1] == ACTOR_OBS_DIM,
-                            f"policy.onnx takes {[i.shape for i in inputs]}, expected one "
-                            f"input [1, {ACTOR_OBS_DIM}]")
-        self._refuse_unless(outputs[0].shape[-1] == constants.NUM_JOINTS,
-                            f"policy.onnx returns {outputs[0].shape}, expected "
-                            f"[1, {constants.NUM_JOINTS}]")
-        self._input, self._output = inputs[0].name, outputs[0].name
         self.description = desc
-        self.action_scale = float(desc["action"]["scale"])
+        self.action_scale = self.policy.action_scale
         self.last_action = np.zeros(constants.NUM_JOINTS)
 
     def _refuse_unless(self, ok: bool, why: str) -> None:
@@ -92,14 +77,11 @@ class PolicyRunner:
 
     def infer(self, obs: np.ndarray) -> np.ndarray:
         """The network's action for o_t, shape (27,) (no clipping)."""
-        batch = np.asarray(obs, dtype=np.float32).reshape(1, ACTOR_OBS_DIM)
-        return self.session.run([self._output], {self._input: batch})[0][0].astype(float)
+        return self.policy(obs)
 
     def step(self, state: RobotState) -> PolicyOutput:
         """One control step: o_t, a_t, and q_ref = q* + scale · clip(a_t); remembers a_t."""
         obs = self.observation(state)
         action = self.infer(obs)
-        clipped = np.clip(action, -ACTION_CLIP, ACTION_CLIP)
-        self.last_action = clipped
-        q_ref = constants.DEFAULT_JOINT_POS + self.action_scale * clipped
-        return PolicyOutput(obs=obs, action=action, q_ref=q_ref)
+        self.last_action = clip_action(action)
+        return PolicyOutput(obs=obs, action=action, q_ref=joint_targets(action, self.action_scale))

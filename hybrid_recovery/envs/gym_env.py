@@ -22,12 +22,13 @@ from hybrid_recovery.envs.config import EnvConfig, default_config
 from hybrid_recovery.envs.initial_states import POSES
 from hybrid_recovery.envs.recovery_env import RecoveryEnv
 from hybrid_recovery.observation import ACTOR_OBS_DIM
+from hybrid_recovery.policy.action import ACTION_CLIP
 from hybrid_recovery.robot.constants import NUM_JOINTS
 
 if TYPE_CHECKING:
     from hybrid_recovery.envs.render import BalanceRenderer
 
-ACTION_BOUND = 10.0
+ACTION_BOUND = ACTION_CLIP
 """|a| the environment accepts per joint; larger actions are clipped to it."""
 
 

@@ -16,34 +16,29 @@ import mujoco
 import numpy as np
 
 from hybrid_recovery.envs.render import BalanceRenderer, balance_overlay
+from hybrid_recovery.policy import OnnxPolicy
 from hybrid_recovery.robot import constants
 
 CONTROL_RATE = 50
 """Control steps per second of the environment [Hz]; the frame rate must divide it."""
 
 Policy = Callable[[np.ndarray], np.ndarray]
-"""Actor observation (1, 87) float32 → action (1, 27)."""
+"""Actor observation (N, 87) float32 → action (N, 27) float32."""
 
 
 def onnx_policy(path: str | Path) -> Policy:
     """An exported policy (``policy.onnx``, or the directory holding it) on onnxruntime.
 
+    ``policy.json`` next to it, when present, is checked (:class:`OnnxPolicy`).
+
     Raises:
         FileNotFoundError: no such file.
+        ValueError: the policy does not match this robot or observation layout.
     """
-    import onnxruntime as ort
-
-    path = Path(path)
-    onnx_path = path / "policy.onnx" if path.is_dir() else path
-    if not onnx_path.is_file():
-        raise FileNotFoundError(f"policy not found: {onnx_path}")
-    options = ort.SessionOptions()
-    options.intra_op_num_threads = 1
-    session = ort.InferenceSession(str(onnx_path), options)
-    name = session.get_inputs()[0].name
+    policy = OnnxPolicy(path)
 
     def act(obs: np.ndarray) -> np.ndarray:
-        return session.run(None, {name: obs.astype(np.float32)})[0]
+        return policy.act(obs).astype(np.float32)
 
     return act
 

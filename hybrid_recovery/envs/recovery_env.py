@@ -34,6 +34,7 @@ from hybrid_recovery.envs.rewards import RewardState, compute_rewards
 from hybrid_recovery.envs.scene import build_scene, read_contacts
 from hybrid_recovery.envs.terminations import TERMINATIONS, StuckLow, success_step
 from hybrid_recovery.observation.actor import actor_observation, noise_halfwidths, projected_gravity
+from hybrid_recovery.policy.action import clip_action, joint_targets
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.mjcf import default_qpos
 
@@ -41,7 +42,6 @@ PRIVILEGED_DIM = 17
 """CoM position (3), velocity (3), acceleration (3), p_l (3), L (3), ξ − p_c,xy (2)."""
 
 _HARD_POSES = ("sitting", "supine", "prone")
-_ACTION_CLIP = 10.0
 
 
 class RecoveryEnv(VecEnv):
@@ -110,9 +110,8 @@ class RecoveryEnv(VecEnv):
 
     def step(self, actions: torch.Tensor) -> tuple[TensorDict, torch.Tensor, torch.Tensor, dict]:
         self.last_action = self.action
-        self.action = np.clip(actions.detach().cpu().numpy().astype(float), -_ACTION_CLIP,
-                              _ACTION_CLIP)
-        targets = constants.DEFAULT_JOINT_POS + self.cfg.action_scale * self.action
+        self.action = clip_action(actions.detach().cpu().numpy())
+        targets = joint_targets(self.action, self.cfg.action_scale)
         lo_hi = self.randomizer.jnt_range[:, 1:1 + self.num_actions]
         targets = np.clip(targets, lo_hi[..., 0], lo_hi[..., 1])
         self.target_hist = np.roll(self.target_hist, 1, axis=1)

@@ -9,8 +9,7 @@ from typing import Any
 
 import torch
 
-from hybrid_recovery.observation import ACTOR_OBS_DIM
-from hybrid_recovery.robot.constants import JOINT_NAMES
+from hybrid_recovery.policy.description import check_meta
 
 LATEST = "latest.pt"
 """File name of the newest checkpoint in a run directory."""
@@ -54,13 +53,3 @@ def load_checkpoint(path: str | Path) -> dict:
         raise ValueError(f"checkpoint {path} was not written by hybrid_recovery (no infos.meta)")
     check_meta(meta, str(path))
     return data
-
-
-def check_meta(meta: dict, source: str) -> None:
-    """Refuses a policy trained for other joints or another actor observation layout."""
-    if list(meta.get("joint_names", [])) != list(JOINT_NAMES):
-        raise ValueError(f"{source} was trained for joints {meta.get('joint_names')}, "
-                         f"not the H1-2's {list(JOINT_NAMES)}")
-    if int(meta.get("actor_obs_dim", -1)) != ACTOR_OBS_DIM:
-        raise ValueError(f"{source} expects an actor observation of {meta.get('actor_obs_dim')} "
-                         f"entries; this version builds {ACTOR_OBS_DIM}")

@@ -5,17 +5,17 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import numpy as np
 import torch
 from rsl_rl.models import MLPModel
 from tensordict import TensorDict
 
 from hybrid_recovery.observation import ACTOR_OBS_DIM, ACTOR_TERMS
+from hybrid_recovery.policy.description import POLICY_FORMAT, load_policy_description
 from hybrid_recovery.robot import constants
-from hybrid_recovery.training.checkpoint import LATEST, check_meta, load_checkpoint
+from hybrid_recovery.training.checkpoint import LATEST, load_checkpoint
 
-POLICY_FORMAT = "hybrid_recovery.policy/1"
-"""Version tag of ``policy.json``; runners refuse other formats."""
+__all__ = ["POLICY_FORMAT", "actor_from_checkpoint", "export_policy", "load_policy_description",
+           "policy_description"]
 
 
 def actor_from_checkpoint(data: dict) -> MLPModel:
@@ -78,31 +78,3 @@ def export_policy(run_dir: str | Path, out_dir: str | Path | None = None,
     desc = policy_description(meta, data["infos"].get("env_steps"), data.get("iter"))
     (out / "policy.json").write_text(json.dumps(desc, indent=2))
     return out
-
-
-def load_policy_description(path: str | Path) -> dict:
-    """Reads a ``policy.json`` and refuses one that does not match this robot and version.
-
-    Raises:
-        FileNotFoundError: no such file.
-        ValueError: another format, other joints, another observation layout, other gains.
-    """
-    path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"policy description not found: {path}")
-    try:
-        desc = json.loads(path.read_text())
-    except json.JSONDecodeError as err:
-        raise ValueError(f"{path} is not valid JSON: {err}") from err
-    if desc.get("format") != POLICY_FORMAT:
-        raise ValueError(f"{path} has format {desc.get('format')!r}, expected {POLICY_FORMAT!r}")
-    check_meta({"joint_names": desc.get("joint_names"),
-                "actor_obs_dim": desc.get("observation", {}).get("dim")}, str(path))
-    if [list(t) for t in desc["observation"]["terms"]] != [list(t) for t in ACTOR_TERMS]:
-        raise ValueError(f"{path} observation terms {desc['observation']['terms']} differ from "
-                         f"this version's {[list(t) for t in ACTOR_TERMS]}")
-    for key, ref in (("default_joint_pos", constants.DEFAULT_JOINT_POS), ("kp", constants.KP),
-                     ("kd", constants.KD)):
-        if not np.allclose(desc[key], ref):
-            raise ValueError(f"{path} {key} differs from the robot constants")
-    return desc

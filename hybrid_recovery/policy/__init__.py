@@ -1,0 +1,24 @@
+"""The exported policy, below every runner: ``policy.json``, action → targets, onnxruntime.
+
+Control, evaluation, ``play`` and deploy all load and run a policy through
+:class:`OnnxPolicy` and form joint targets with :func:`joint_targets`, the environment
+too. Nothing here imports torch (onnxruntime is imported when a policy is loaded).
+"""
+
+from hybrid_recovery.policy.action import ACTION_CLIP, clip_action, joint_targets
+from hybrid_recovery.policy.description import (
+    POLICY_FORMAT,
+    check_meta,
+    load_policy_description,
+)
+from hybrid_recovery.policy.onnx_policy import OnnxPolicy
+
+__all__ = [
+    "ACTION_CLIP",
+    "POLICY_FORMAT",
+    "OnnxPolicy",
+    "check_meta",
+    "clip_action",
+    "joint_targets",
+    "load_policy_description",
+]

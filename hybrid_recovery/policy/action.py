@@ -1,0 +1,33 @@
+"""Action → joint targets, as in training: q_ref = q* + s · clip(a, ±ACTION_CLIP).
+
+The environment, the deploy runner and the MuJoCo controllers all go through
+:func:`joint_targets`, so the robot gets the targets the policy was trained on; the
+clipped action (:func:`clip_action`) is the next observation's ``last_action``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from hybrid_recovery.robot.constants import DEFAULT_JOINT_POS
+
+ACTION_CLIP = 10.0
+"""|a| bound applied to the policy output before the targets are formed."""
+
+
+def clip_action(action: np.ndarray) -> np.ndarray:
+    """clip(a, −ACTION_CLIP, ACTION_CLIP), shape (..., 27), float64."""
+    return np.clip(np.asarray(action, dtype=float), -ACTION_CLIP, ACTION_CLIP)
+
+
+def joint_targets(action: np.ndarray, scale: float) -> np.ndarray:
+    """q_ref = q* + s · clip(a, ±ACTION_CLIP).
+
+    Args:
+        action: a_t (unscaled policy output), shape (..., 27).
+        scale: s, the action scale [rad] (``policy.json``'s ``action.scale``, 0.3).
+
+    Returns:
+        q_ref, shape (..., 27) [rad], motor order.
+    """
+    return DEFAULT_JOINT_POS + scale * clip_action(action)

@@ -1,0 +1,79 @@
+"""The one policy runner: targets as in training, checks at load, batch = rows, no torch."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+import torch
+
+from hybrid_recovery.deploy.stand_in import write_stand_in_policy
+from hybrid_recovery.observation import ACTOR_OBS_DIM
+from hybrid_recovery.policy import ACTION_CLIP, OnnxPolicy, joint_targets
+from hybrid_recovery.robot import constants
+
+
+@pytest.fixture(scope="module")
+def export(tmp_path_factory):
+    return write_stand_in_policy(tmp_path_factory.mktemp("random"), "random")
+
+
+def test_joint_targets_clip_then_scale():
+    action = np.linspace(-25.0, 25.0, constants.NUM_JOINTS)
+    expected = constants.DEFAULT_JOINT_POS + 0.3 * np.clip(action, -ACTION_CLIP, ACTION_CLIP)
+    np.testing.assert_array_equal(joint_targets(action, 0.3), expected)
+    batch = joint_targets(np.stack([action, -action]), 0.3)
+    np.testing.assert_array_equal(batch[1], joint_targets(-action, 0.3))
+
+
+def test_directory_or_file_with_its_description_and_batch_equals_rows(export):
+    from_dir, from_file = OnnxPolicy(export), OnnxPolicy(export / "policy.onnx")
+    assert from_dir.path == from_file.path == export / "policy.onnx"
+    assert from_dir.description == json.loads((export / "policy.json").read_text())
+    assert from_dir.action_scale == 0.3
+    obs = np.random.default_rng(0).normal(size=(3, ACTOR_OBS_DIM))
+    batch = from_dir.act(obs)
+    assert batch.shape == (3, constants.NUM_JOINTS) and batch.dtype == np.float64
+    for row, o in zip(batch, obs, strict=True):
+        np.testing.assert_array_equal(row, from_file(o))
+    assert np.abs(batch).max() > 0.0
+
+
+def test_description_is_checked_when_present_or_required(export, tmp_path):
+    (tmp_path / "policy.onnx").write_bytes((export / "policy.onnx").read_bytes())
+    assert OnnxPolicy(tmp_path).description is None
+    with pytest.raises(FileNotFoundError) as info:
+        OnnxPolicy(tmp_path, require_description=True)
+    assert str(info.value) == f"policy description not found: {tmp_path / 'policy.json'}"
+    desc = json.loads((export / "policy.json").read_text())
+    desc["kd"][0] += 1.0
+    (tmp_path / "policy.json").write_text(json.dumps(desc))
+    with pytest.raises(ValueError) as info:
+        OnnxPolicy(tmp_path)
+    assert str(info.value) == f"{tmp_path / 'policy.json'} kd differs from the robot constants"
+
+
+def test_described_graph_must_declare_the_actions(export, tmp_path):
+    torch.onnx.export(torch.nn.Linear(ACTOR_OBS_DIM, 5), (torch.zeros(1, ACTOR_OBS_DIM),),
+                      str(tmp_path / "policy.onnx"), input_names=["obs"],
+                      output_names=["actions"], dynamo=False)
+    assert OnnxPolicy(tmp_path).description is None  # bare: checked per call
+    (tmp_path / "policy.json").write_text((export / "policy.json").read_text())
+    with pytest.raises(ValueError) as info:
+        OnnxPolicy(tmp_path)
+    assert str(info.value) == "policy.onnx returns [1, 5], expected [1, 27]"
+
+
+def test_deploy_runner_and_envs_package_load_without_torch(export):
+    code = ("import sys\n"
+            "from hybrid_recovery.deploy.policy_runner import PolicyRunner\n"
+            "import hybrid_recovery.envs\n"
+            f"PolicyRunner({str(export)!r})\n"
+            "print('torch' in sys.modules)\n")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=120)
+    assert run.returncode == 0, run.stderr[-2000:]
+    assert run.stdout.strip() == "False"
