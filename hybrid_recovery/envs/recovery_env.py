@@ -316,8 +316,7 @@ class RecoveryEnv(VecEnv):
             log[f"termination/{name}"] = torch.from_numpy(dones_by[name][ids].astype(np.float32))
         log["episode/success"] = torch.from_numpy(self.succeeded[ids].astype(np.float32))
         log["episode/final_com_height"] = torch.from_numpy(self._state["height"][ids])
-        advanced = self.curriculum.record(self.succeeded[ids])
-        del advanced
+        self.curriculum.record(self.succeeded[ids])
         log["curriculum/stage"] = float(self.curriculum.stage)
         log["curriculum/level"] = float(self.curriculum.level)
         log["curriculum/torque_scale"] = float(self.curriculum.torque_scale)
