@@ -45,7 +45,7 @@ def available_controllers() -> tuple[list[str], list[str]]:
         if "qp" in specs:
             specs.append(f"hybrid:{SHIPPED_POLICY}")
     else:
-        notes.append(f"No trained policy is shipped yet ({SHIPPED_POLICY} is empty): "
+        notes.append(f"No trained policy is shipped yet (no policy.onnx in {SHIPPED_POLICY}): "
                      "the learned and hybrid controllers are left out.")
     return specs, notes
 
