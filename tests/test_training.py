@@ -172,3 +172,15 @@ def test_sigkill_then_resume_loses_at_most_one_interval(tmp_path):
     state = saved["infos"]["curriculum"]
     after = resumed.env.curriculum.state_dict()
     assert (after["stage"], after["level"]) >= (state["stage"], state["level"])
+
+
+def test_resume_uses_the_runs_saved_settings(tmp_path):
+    run = tmp_path / "run"
+    train(run, _cfg(init_std=0.5, env_overrides={**FAST, "assist.fraction": 0.3}))
+    # resumed with other options: the run's own settings win, iterations come from now
+    resumed = train(run, _cfg(iterations=3), resume=True)
+    assert resumed.current_learning_iteration == 2
+    assert resumed.env.cfg.assist.fraction == 0.3
+    assert "assist" in load_checkpoint(run / "latest.pt")["infos"]
+    meta = json.loads((run / "config.json").read_text())
+    assert meta["train_config"]["init_std"] == 0.5 and meta["train_config"]["iterations"] == 3

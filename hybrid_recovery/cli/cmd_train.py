@@ -13,7 +13,8 @@ def _train(args: argparse.Namespace) -> int:
 
     cfg = TrainConfig(variant=args.variant, num_envs=args.num_envs, iterations=args.iterations,
                       seed=args.seed, save_interval=args.save_interval,
-                      num_threads=args.threads, env_overrides=parse_overrides(args.set))
+                      num_threads=args.threads, init_std=args.init_std,
+                      env_overrides=parse_overrides(args.set))
     cfg.ppo.symmetry = args.symmetry
     run_dir = Path(args.run_dir or f"runs/{args.variant}")
     train(run_dir, cfg, resume=args.resume)
@@ -30,8 +31,11 @@ def _configure_train(p: argparse.ArgumentParser) -> None:
     p.add_argument("--save-interval", type=int, default=50)
     p.add_argument("--threads", type=int, default=2)
     p.add_argument("--run-dir", default=None, help="default: runs/<variant>")
-    p.add_argument("--resume", action="store_true", help="continue the run in --run-dir")
+    p.add_argument("--resume", action="store_true",
+                   help="continue the run in --run-dir with its saved settings")
     p.add_argument("--symmetry", action="store_true", help="left/right mirror augmentation")
+    p.add_argument("--init-std", type=float, default=1.0,
+                   help="initial action noise std (the paper: 1.0)")
     p.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
                    help="EnvConfig overrides, e.g. rewards.w_cp=0 curriculum.window=256")
 

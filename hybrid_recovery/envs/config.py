@@ -154,6 +154,26 @@ class CurriculumConfig:
 
 
 @dataclass
+class AssistConfig:
+    """Lifting assistance annealed away (beyond the paper; off by default).
+
+    An upward force of ``fraction`` × m g on the torso while its tilt is below
+    ``max_tilt`` lets early policies reach, and learn to hold, the upright states that
+    random exploration rarely finds. Each time the success rate of the last curriculum
+    window of episodes reaches ``CurriculumConfig.advance_success`` the fraction is
+    multiplied by ``decay``; below ``floor`` it is switched off. The curriculum of
+    SPEC §5 only starts counting once the assistance is off.
+    """
+
+    fraction: float = 0.0
+    """Initial force as a fraction of the robot's weight; 0 = off (the paper)."""
+    decay: float = 0.7
+    floor: float = 0.05
+    max_tilt: float = 1.05
+    """Torso tilt from vertical up to which the force acts [rad] (60°)."""
+
+
+@dataclass
 class EnvConfig:
     """The recovery environment (SPEC §2–§6)."""
 
@@ -199,6 +219,7 @@ class EnvConfig:
     domain_rand: DomainRandConfig = field(default_factory=DomainRandConfig)
     pushes: PushConfig = field(default_factory=PushConfig)
     curriculum: CurriculumConfig = field(default_factory=CurriculumConfig)
+    assist: AssistConfig = field(default_factory=AssistConfig)
 
 
 def default_config() -> EnvConfig:

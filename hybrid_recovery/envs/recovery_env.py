@@ -20,6 +20,7 @@ from tensordict import TensorDict
 from hybrid_recovery.dynamics import GRAVITY, net_centroidal_wrench
 from hybrid_recovery.dynamics.capturability import capture_point
 from hybrid_recovery.dynamics.support import signed_distance_batched
+from hybrid_recovery.envs.assist import Assist
 from hybrid_recovery.envs.config import EnvConfig, default_config
 from hybrid_recovery.envs.curriculum import Curriculum
 from hybrid_recovery.envs.domain_rand import Randomizer
@@ -75,6 +76,7 @@ class RecoveryEnv(VecEnv):
         self.torso = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, constants.TORSO_BODY)
         self.randomizer = Randomizer(m, self.sims, cfg.domain_rand)
         self.curriculum = Curriculum(cfg.curriculum)
+        self.assist = Assist(cfg.assist, cfg.curriculum.window, cfg.curriculum.advance_success)
         self.pushes = Pushes(cfg.pushes, n, self.dt)
         self.stuck = StuckLow(n, cfg.stuck_time, cfg.stuck_rise, self.dt)
         self.pool = settle_pool(m, per_pose=32, rng=self.rng, nthread=cfg.num_threads)
@@ -118,6 +120,10 @@ class RecoveryEnv(VecEnv):
         self.target_hist[:, 0] = targets
         self.xfrc[:, self.torso, :3] = self.pushes.force(self.upright_time, self.rng,
                                                        self.curriculum.difficulty)
+        if self.assist.active:
+            mass = self.randomizer.mass[:, 1:].sum(1)
+            self.xfrc[:, self.torso, 2] += self.assist.force_z(mass, self._state["gravity_b"],
+                                                               GRAVITY)
         failed = self._physics()
         self.episode_length_buf += 1
         self._read_state()
@@ -316,7 +322,11 @@ class RecoveryEnv(VecEnv):
             log[f"termination/{name}"] = torch.from_numpy(dones_by[name][ids].astype(np.float32))
         log["episode/success"] = torch.from_numpy(self.succeeded[ids].astype(np.float32))
         log["episode/final_com_height"] = torch.from_numpy(self._state["height"][ids])
-        self.curriculum.record(self.succeeded[ids])
+        if self.assist.active:  # the curriculum counts unassisted episodes only
+            self.assist.record(self.succeeded[ids])
+        else:
+            self.curriculum.record(self.succeeded[ids])
+        log["curriculum/assist_fraction"] = float(self.assist.fraction)
         log["curriculum/stage"] = float(self.curriculum.stage)
         log["curriculum/level"] = float(self.curriculum.level)
         log["curriculum/torque_scale"] = float(self.curriculum.torque_scale)

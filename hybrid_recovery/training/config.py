@@ -52,6 +52,19 @@ class TrainConfig:
     """Dotted EnvConfig overrides applied after the variant's."""
 
 
+def train_config_from_dict(data: dict[str, Any]) -> TrainConfig:
+    """The TrainConfig saved in a run's ``config.json`` (``train_config``).
+
+    Raises:
+        KeyError: naming an unknown key.
+    """
+    data = dict(data)
+    ppo = PPOConfig(**data.pop("ppo", {}))
+    if "hidden_dims" in data:
+        data["hidden_dims"] = tuple(data["hidden_dims"])
+    return TrainConfig(ppo=ppo, **data)
+
+
 def runner_dict(cfg: TrainConfig) -> dict[str, Any]:
     """The rsl-rl-lib 5 ``OnPolicyRunner`` configuration for ``cfg``."""
     ppo = asdict(cfg.ppo)

@@ -16,7 +16,7 @@ from hybrid_recovery.envs.config import EnvConfig
 from hybrid_recovery.observation import ACTOR_OBS_DIM, ACTOR_TERMS
 from hybrid_recovery.robot.constants import JOINT_NAMES
 from hybrid_recovery.training.checkpoint import LATEST, atomic_save, load_checkpoint
-from hybrid_recovery.training.config import TrainConfig, runner_dict
+from hybrid_recovery.training.config import TrainConfig, runner_dict, train_config_from_dict
 from hybrid_recovery.training.variants import variant_overrides
 
 
@@ -38,6 +38,7 @@ class RecoveryRunner(OnPolicyRunner):
             * self.env.num_envs
         saved["infos"] = {**(infos or {}), "meta": self.meta,
                           "curriculum": self.env.curriculum.state_dict(),
+                          "assist": self.env.assist.state_dict(),
                           "env_steps": env_steps}
         atomic_save(saved, path)
         run = Path(path).parent
@@ -52,6 +53,8 @@ class RecoveryRunner(OnPolicyRunner):
         self.alg.load(data, None, True)
         self.current_learning_iteration = int(data["iter"]) + 1
         self.env.curriculum.load_state_dict(data["infos"]["curriculum"])
+        if "assist" in data["infos"]:
+            self.env.assist.load_state_dict(data["infos"]["assist"])
 
 
 def make_env_config(cfg: TrainConfig) -> EnvConfig:
@@ -79,6 +82,21 @@ def policy_meta(cfg: TrainConfig, env_cfg: EnvConfig, critic_dim: int) -> dict:
             "train_config": dataclasses.asdict(cfg), "env_config": dataclasses.asdict(env_cfg)}
 
 
+def _resumed_config(run_dir: Path, cfg: TrainConfig) -> TrainConfig:
+    """The run's own saved TrainConfig (a resume continues the same run), keeping only
+    ``iterations`` and ``num_threads`` from ``cfg``."""
+    path = run_dir / "config.json"
+    if not path.is_file():
+        return cfg
+    saved = train_config_from_dict(json.loads(path.read_text())["train_config"])
+    saved.iterations, saved.num_threads = cfg.iterations, cfg.num_threads
+    if dataclasses.replace(saved, iterations=0, num_threads=0) != \
+            dataclasses.replace(cfg, iterations=0, num_threads=0):
+        print(f"[hybrid-recovery] resuming with the run's saved settings ({path}); "
+              "options given now other than iterations and threads are ignored", flush=True)
+    return saved
+
+
 def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False) -> RecoveryRunner:
     """Trains (or resumes) a run in ``run_dir`` up to ``cfg.iterations`` iterations.
 
@@ -89,6 +107,8 @@ def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False) -> Recove
     latest = run_dir / LATEST
     if resume and not latest.is_file():
         raise FileNotFoundError(f"cannot resume: no {LATEST} in {run_dir}")
+    if resume:
+        cfg = _resumed_config(run_dir, cfg)
     run_dir.mkdir(parents=True, exist_ok=True)
     torch.manual_seed(cfg.seed)
     torch.set_num_threads(cfg.num_threads)

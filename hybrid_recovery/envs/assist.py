@@ -1,0 +1,59 @@
+"""Lifting assistance that is annealed away by success (beyond the paper)."""
+
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+
+from hybrid_recovery.envs.config import AssistConfig
+
+
+class Assist:
+    """Upward torso force F_z = f m g, f annealed from ``cfg.fraction`` to 0.
+
+    Args:
+        cfg: the assistance settings.
+        window: finished episodes per decision (the curriculum's window).
+        advance_success: success rate over ``window`` that earns one decay step.
+    """
+
+    def __init__(self, cfg: AssistConfig, window: int, advance_success: float) -> None:
+        self.cfg, self.advance_success = cfg, advance_success
+        self.fraction = cfg.fraction if cfg.fraction >= cfg.floor else 0.0
+        self._outcomes: deque[bool] = deque(maxlen=window)
+
+    @property
+    def active(self) -> bool:
+        return self.fraction > 0.0
+
+    def force_z(self, mass: np.ndarray, gravity_b: np.ndarray, g: float) -> np.ndarray:
+        """Upward force per env, shape (N,) [N].
+
+        Args:
+            mass: total robot mass (N,) [kg]; gravity_b: torso projected gravity (N, 3).
+        """
+        upright = -gravity_b[:, 2] > np.cos(self.cfg.max_tilt)
+        return self.fraction * mass * g * upright
+
+    def record(self, success: np.ndarray) -> bool:
+        """Adds finished episodes' outcomes; decays the force when earned."""
+        if not self.active:
+            return False
+        self._outcomes.extend(bool(s) for s in np.atleast_1d(success))
+        if len(self._outcomes) < (self._outcomes.maxlen or 1):
+            return False
+        if np.mean(self._outcomes) < self.advance_success:
+            return False
+        self._outcomes.clear()
+        self.fraction *= self.cfg.decay
+        if self.fraction < self.cfg.floor:
+            self.fraction = 0.0
+        return True
+
+    def state_dict(self) -> dict:
+        return {"fraction": self.fraction, "outcomes": list(self._outcomes)}
+
+    def load_state_dict(self, state: dict) -> None:
+        self.fraction = float(state["fraction"])
+        self._outcomes = deque(state.get("outcomes", []), maxlen=self._outcomes.maxlen)
