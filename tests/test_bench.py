@@ -81,9 +81,11 @@ def test_random_states_are_valid(own_model):
 def test_env_bench_reports_rates_and_split():
     from hybrid_recovery.bench import run_env_bench
 
-    result = run_env_bench(n=4, repeat=1, steps=3, threads=1)
+    result = run_env_bench(n=4, repeat=1, steps=3, threads=1,
+                           overrides={"physics_dt": 0.01, "decimation": 2})
     figures = json.loads(result.json_line())
     assert figures["bench"] == "env" and figures["num_envs"] == 4
+    assert figures["physics_dt"] == 0.01
     assert figures["env_steps_per_s"] > 0 and figures["physics_steps_per_s"] > 0
     assert set(figures["ms_per_step"]) == {"physics", "state_and_hulls", "observations",
                                            "resets", "rewards_terminations_other"}

@@ -24,7 +24,7 @@ def _timed(obj, name: str, totals: dict) -> None:
 
 
 def run_env_bench(n: int = 1024, repeat: int = 3, seed: int = 0, steps: int = 50,
-                  threads: int = 2) -> BenchResult:
+                  threads: int = 2, overrides: dict | None = None) -> BenchResult:
     """Times ``RecoveryEnv.step`` on ``n`` envs, then the bare Batch on the same states.
 
     The physics-only rate steps the same persistent Batch (same states, same number of
@@ -34,9 +34,9 @@ def run_env_bench(n: int = 1024, repeat: int = 3, seed: int = 0, steps: int = 50
     import numpy as np
     import torch
 
-    from hybrid_recovery.envs import RecoveryEnv, default_config
+    from hybrid_recovery.envs import RecoveryEnv, apply_overrides, default_config
 
-    cfg = default_config()
+    cfg = apply_overrides(default_config(), overrides or {})
     cfg.num_envs, cfg.num_threads, cfg.seed = n, threads, seed
     env = RecoveryEnv(cfg)
     gen = torch.Generator().manual_seed(seed)
@@ -73,9 +73,9 @@ def run_env_bench(n: int = 1024, repeat: int = 3, seed: int = 0, steps: int = 50
     load = os.getloadavg()[0]
     return BenchResult(
         name="env", title=f"RecoveryEnv.step, {n} envs, {threads} physics threads, {steps} "
-        f"steps (load average {load:.2f})",
+        f"steps, physics {cfg.physics_dt * 1e3:g} ms × {cfg.decimation} (load average {load:.2f})",
         columns=("part", "ms per step", "share"), rows=rows,
-        figures={"num_envs": n, "env_steps_per_s": round(env_rate, 1),
+        figures={"num_envs": n, "physics_dt": cfg.physics_dt, "env_steps_per_s": round(env_rate, 1),
                  "physics_steps_per_s": round(phys_rate, 1),
                  "ratio": round(env_rate / phys_rate, 3),
                  "ms_per_step": {k: round(v / steps * 1e3, 2) for k, v in split.items()},

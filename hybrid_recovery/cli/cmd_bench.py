@@ -4,13 +4,17 @@ from __future__ import annotations
 
 import argparse
 
-from hybrid_recovery.cli.registry import command
+from hybrid_recovery.cli.registry import command, parse_overrides
 
 
 def _bench(args: argparse.Namespace) -> int:
     from hybrid_recovery.bench import BENCHES
 
     options = {"n": args.n, "repeat": args.repeat, "seed": args.seed}
+    if args.set:
+        if args.what != "env":
+            raise SystemExit("--set applies to 'bench env' only")
+        options["overrides"] = parse_overrides(args.set)
     result = BENCHES[args.what](**{k: v for k, v in options.items() if v is not None})
     print(result.table())
     print(result.json_line())
@@ -25,6 +29,8 @@ def _configure_bench(p: argparse.ArgumentParser) -> None:
                    help="problem size, e.g. number of states (default: the bench's own)")
     p.add_argument("--repeat", type=int, default=None, help="timed runs, the best is kept")
     p.add_argument("--seed", type=int, default=None)
+    p.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
+                   help="EnvConfig overrides for 'bench env', e.g. physics_dt=0.01 decimation=2")
 
 
 _bench.configure = _configure_bench  # type: ignore[attr-defined]
