@@ -65,12 +65,20 @@ class RecoveryEnv(VecEnv):
         self.dt = cfg.physics_dt * cfg.decimation
         self.max_episode_length = int(math.ceil(cfg.episode_length_s / self.dt))
         self.rng = np.random.default_rng(cfg.seed)
-        self.model, self.layout = build_scene(cfg.model_path, cfg.physics_dt)
+        delay = np.round(np.asarray(cfg.delay_range) / cfg.physics_dt).astype(int)
+        self._delay_steps = (int(delay[0]), int(delay[1]))
+        self.model, self.layout = build_scene(cfg.model_path, cfg.physics_dt,
+                                              delay_samples=int(delay[1]) + 2)
         n, m = cfg.num_envs, self.model
         self.sims = mjbatch.Batch(m, n, cfg.num_threads, persistent=True)
         b = self.sims.bind
         self.qpos, self.qvel, self.ctrl = b("qpos"), b("qvel"), b("ctrl")
         self.xfrc = b("xfrc_applied")
+        self.history, self.actuator_delay = b("history"), self.sims.expand("actuator_delay")
+        ns = int(m.actuator_history[0, 0])  # per actuator: 2 + ns times + ns values
+        self._history_values = m.actuator_historyadr[:, None] + 2 + ns + np.arange(ns)
+        self.delay_steps = np.zeros(n, dtype=int)
+        """Per-episode actuation delay [substeps]."""
         self.qadr = m.jnt_qposadr[1:1 + constants.NUM_JOINTS]
         self.dadr = m.jnt_dofadr[1:1 + constants.NUM_JOINTS]
         self.torso = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, constants.TORSO_BODY)
@@ -83,11 +91,6 @@ class RecoveryEnv(VecEnv):
         self.noise = noise_halfwidths(cfg.noise.ang_vel, cfg.noise.gravity, cfg.noise.joint_pos,
                                       cfg.noise.joint_vel)
         self.h_star = cfg.rewards.height_target or float(self._com_height(default_qpos(m)))
-        delay = np.round(np.asarray(cfg.delay_range) / cfg.physics_dt).astype(int)
-        self._delay_steps = (int(delay[0]), int(delay[1]))
-        self._hist_len = 1 + (delay[1] + cfg.decimation - 1) // cfg.decimation
-        self.target_hist = np.zeros((n, self._hist_len, self.num_actions))
-        self.delay_offset = np.zeros((n, cfg.decimation), dtype=int)
         self.action = np.zeros((n, self.num_actions))
         self.last_action = np.zeros_like(self.action)
         self.episode_length_buf = torch.zeros(n, dtype=torch.long)
@@ -116,8 +119,7 @@ class RecoveryEnv(VecEnv):
         targets = joint_targets(self.action, self.cfg.action_scale)
         lo_hi = self.randomizer.jnt_range[:, 1:1 + self.num_actions]
         targets = np.clip(targets, lo_hi[..., 0], lo_hi[..., 1])
-        self.target_hist = np.roll(self.target_hist, 1, axis=1)
-        self.target_hist[:, 0] = targets
+        self.ctrl[:] = targets  # applied delay_steps substeps late by MuJoCo
         self.xfrc[:, self.torso, :3] = self.pushes.force(self.upright_time, self.rng,
                                                        self.curriculum.difficulty)
         if self.assist.active:
@@ -158,15 +160,13 @@ class RecoveryEnv(VecEnv):
 
     # ------------------------------------------------------------------ physics
     def _physics(self) -> np.ndarray:
-        """Steps ``decimation`` substeps with the delayed targets; returns failed envs."""
+        """Steps ``decimation`` substeps (the actuators apply the delayed targets);
+        returns the failed envs."""
         failed = np.zeros(self.num_envs, dtype=bool)
-        rows = np.arange(self.num_envs)
-        for k in range(self.cfg.decimation):
-            self.ctrl[:] = self.target_hist[rows, self.delay_offset[:, k]]
-            try:
-                self.sims.step(nstep=1, stage=mujoco.mjtStage.mjSTAGE_VEL)
-            except mjbatch.SimulationError as err:
-                failed[np.asarray(err.ids)] = True
+        try:
+            self.sims.step(nstep=self.cfg.decimation, stage=mujoco.mjtStage.mjSTAGE_VEL)
+        except mjbatch.SimulationError as err:
+            failed[np.asarray(err.ids)] = True
         bad = ~np.isfinite(self.qpos).all(1) | ~np.isfinite(self.qvel).all(1)
         failed |= bad | (np.abs(self.qvel) > 1e3).any(1)
         if failed.any():
@@ -297,11 +297,14 @@ class RecoveryEnv(VecEnv):
         seat_on_ground(self.model, self.sims, ids)
         self.randomizer.randomize(ids, rng, self.curriculum.difficulty)
         delay = rng.integers(self._delay_steps[0], self._delay_steps[1] + 1, n)
-        sub = np.arange(self.cfg.decimation)
-        self.delay_offset[ids] = np.clip(
-            -((sub[None, :] - delay[:, None]) // self.cfg.decimation), 0, self._hist_len - 1)
-        self.target_hist[ids] = self.qpos[ids][:, None, self.qadr]
-        self.ctrl[ids] = self.target_hist[ids, 0]
+        self.delay_steps[ids] = delay
+        # the control recorded d substeps earlier, held (half a substep keeps it exact)
+        self.actuator_delay[ids] = (np.maximum(delay - 0.5, 0.0) * self.cfg.physics_dt)[:, None]
+        start = self.qpos[ids][:, self.qadr]
+        self.ctrl[ids] = start
+        history = self.history[ids]
+        history[:, self._history_values] = start[:, :, None]  # hold the start pose
+        self.history[ids] = history
         self.action[ids] = 0.0
         self.last_action[ids] = 0.0
         self.xfrc[ids] = 0.0

@@ -61,17 +61,25 @@ class SensorLayout:
     """Contact group → indices into the M slots."""
 
 
-def build_scene(path: str | Path | None = None, timestep: float = 0.005):
+def build_scene(path: str | Path | None = None, timestep: float = 0.005,
+                delay_samples: int = 0):
     """Compiles the robot with floor, actuators and the MDP's sensors.
 
     Args:
         path: Robot MJCF; None for the project's H1-2.
         timestep: Physics step [s].
+        delay_samples: If > 0, each actuator keeps this many past controls (one per
+            substep) and applies ``ctrl`` ``actuator_delay`` seconds late, held
+            piecewise constant (MuJoCo's native actuator delay); the delay itself is
+            set per simulation.
 
     Returns:
         (model, layout): the compiled ``mujoco.MjModel`` and its :class:`SensorLayout`.
     """
     spec = load_spec(path, floor=True, actuators=True, timestep=timestep)
+    if delay_samples > 0:
+        for actuator in spec.actuators:
+            actuator.nsample, actuator.interp, actuator.delay = delay_samples, 0, 0.0
     site, body = mujoco.mjtObj.mjOBJ_SITE, mujoco.mjtObj.mjOBJ_BODY
     root = constants.PELVIS_BODY
     plain = (
