@@ -11,7 +11,7 @@ def _export(args: argparse.Namespace) -> int:
     from hybrid_recovery.training.export import export_policy
 
     out = export_policy(args.run_dir, args.out, args.checkpoint)
-    print(f"wrote {out / 'policy.onnx'} and {out / 'policy.json'}")
+    print(f"wrote policy.onnx, policy.json, training_record.json and curves.png to {out}")
     return 0
 
 

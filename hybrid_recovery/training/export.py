@@ -13,6 +13,7 @@ from hybrid_recovery.observation import ACTOR_OBS_DIM, ACTOR_TERMS
 from hybrid_recovery.policy.description import POLICY_FORMAT, load_policy_description
 from hybrid_recovery.robot import constants
 from hybrid_recovery.training.checkpoint import LATEST, load_checkpoint
+from hybrid_recovery.training.record import plot_curves, training_record
 
 __all__ = ["POLICY_FORMAT", "actor_from_checkpoint", "export_policy", "load_policy_description",
            "policy_description"]
@@ -58,8 +59,9 @@ def policy_description(meta: dict, env_steps: int | None, iteration: int | None)
 
 def export_policy(run_dir: str | Path, out_dir: str | Path | None = None,
                   checkpoint: str | Path | None = None) -> Path:
-    """Writes ``policy.onnx`` (+ ``policy.onnx.data`` if torch splits the weights) and
-    ``policy.json`` for the newest checkpoint of ``run_dir``.
+    """Writes ``policy.onnx`` (+ ``policy.onnx.data`` if torch splits the weights),
+    ``policy.json`` and the training record (``training_record.json``, ``curves.png``)
+    for the newest checkpoint of ``run_dir``.
 
     Returns:
         The output directory.
@@ -77,4 +79,7 @@ def export_policy(run_dir: str | Path, out_dir: str | Path | None = None,
     meta = data["infos"]["meta"]
     desc = policy_description(meta, data["infos"].get("env_steps"), data.get("iter"))
     (out / "policy.json").write_text(json.dumps(desc, indent=2))
+    record = training_record(run_dir, data)
+    (out / "training_record.json").write_text(json.dumps(record, indent=2, default=str))
+    plot_curves(run_dir, out / "curves.png")
     return out

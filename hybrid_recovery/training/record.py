@@ -1,0 +1,128 @@
+"""A run's training record: provenance, hardware, compute time, final figures and curves.
+
+Written next to an exported policy (``training_record.json``, ``curves.png``) so that a
+shipped policy says how it was made. Everything is read from the run directory: the
+checkpoint's metadata and the TensorBoard scalars that rsl-rl and the environment log.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+from pathlib import Path
+
+import numpy as np
+
+CURVES: tuple[tuple[str, str], ...] = (
+    ("Train/mean_reward", "mean episode reward"),
+    ("episode/final_com_height", "CoM height at episode end [m]"),
+    ("episode/success", "stand-up success (paper criterion)"),
+    ("termination/stuck_low", "stuck-low rate"),
+    ("termination/timeout", "timeout rate"),
+    ("curriculum/stage", "curriculum stage"),
+)
+"""The TensorBoard tags plotted in ``curves.png`` and summarised in the record."""
+
+FINAL_WINDOW = 20
+"""Iterations averaged for the record's final figures."""
+
+
+def read_scalars(run_dir: str | Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Every scalar of a run as (iterations, values), one value per iteration.
+
+    A resumed run logs the iterations after its last checkpoint twice; the later write
+    wins.
+    """
+    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+
+    acc = EventAccumulator(str(run_dir), size_guidance={"scalars": 0})
+    acc.Reload()
+    out = {}
+    for tag in acc.Tags()["scalars"]:
+        latest: dict[int, tuple[float, float]] = {}
+        for event in acc.Scalars(tag):
+            if event.step not in latest or event.wall_time >= latest[event.step][0]:
+                latest[event.step] = (event.wall_time, event.value)
+        steps = np.array(sorted(latest))
+        out[tag] = (steps, np.array([latest[s][1] for s in steps]))
+    return out
+
+
+def hardware() -> dict:
+    """The machine a run trained on, as far as Python can tell."""
+    import mujoco
+    import torch
+
+    cpu = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    gpu = torch.cuda.get_device_name(0) if torch.cuda.is_available() else None
+    return {"cpu": cpu, "cpu_count": os.cpu_count(), "gpu": gpu,
+            "python": platform.python_version(), "torch": torch.__version__,
+            "mujoco": mujoco.__version__, "platform": platform.platform()}
+
+
+def training_record(run_dir: str | Path, checkpoint: dict) -> dict:
+    """The record of the run that produced ``checkpoint`` (a loaded checkpoint dict)."""
+    meta = checkpoint["infos"]["meta"]
+    scalars = read_scalars(run_dir)
+    iteration = int(checkpoint["iter"])
+
+    def upto(tag: str) -> np.ndarray:
+        steps, values = scalars.get(tag, (np.zeros(0), np.zeros(0)))
+        return values[steps <= iteration]
+
+    compute = float(upto("Perf/collection_time").sum() + upto("Perf/learning_time").sum())
+    final = {tag: float(np.mean(upto(tag)[-FINAL_WINDOW:])) for tag, _ in CURVES
+             if len(upto(tag))}
+    return {
+        "variant": meta["variant"], "git_commit": meta["git_commit"],
+        "iteration": iteration, "env_steps": checkpoint["infos"].get("env_steps"),
+        "compute_time_s": round(compute, 2),
+        "hardware": hardware(),
+        "train_config": meta["train_config"],
+        "curriculum": _without_outcomes(checkpoint["infos"].get("curriculum")),
+        "assist": _without_outcomes(checkpoint["infos"].get("assist")),
+        f"final_mean_of_last_{FINAL_WINDOW}_iterations": final,
+    }
+
+
+def _without_outcomes(state: dict | None) -> dict | None:
+    return None if state is None else {k: v for k, v in state.items() if k != "outcomes"}
+
+
+def plot_curves(run_dir: str | Path, out: str | Path, title: str | None = None) -> Path:
+    """Writes the run's learning curves (:data:`CURVES`) against env steps as a PNG."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    run_dir, out = Path(run_dir), Path(out)
+    scalars = read_scalars(run_dir)
+    config = json.loads((run_dir / "config.json").read_text())["train_config"]
+    per_iteration = config["num_envs"] * config["num_steps_per_env"]
+    fig, axes = plt.subplots(2, 3, figsize=(13, 6.5))
+    for ax, (tag, label) in zip(axes.flat, CURVES, strict=True):
+        ax.set_title(label, fontsize=9)
+        ax.set_xlabel("env steps [millions]", fontsize=8)
+        ax.grid(alpha=0.3)
+        if tag not in scalars:
+            continue
+        steps, values = scalars[tag]
+        k = min(10, len(values))
+        smooth = np.convolve(values, np.ones(k) / k, mode="valid")
+        ax.plot(steps * per_iteration / 1e6, values, color="0.8", lw=0.6)
+        ax.plot(steps[k - 1:] * per_iteration / 1e6, smooth, lw=1.4)
+    fig.suptitle(title or f"{run_dir.name}: {config['num_envs']} envs (grey: per iteration, "
+                 "line: mean of 10)", fontsize=10)
+    fig.tight_layout()
+    fig.savefig(out, dpi=90)
+    plt.close(fig)
+    return out
