@@ -174,3 +174,28 @@ def test_pushes_reach_the_torso_with_the_configured_impulse(env):
         change = lin[i, -1] - lin[i, settle]
         np.testing.assert_allclose(change, impulse, atol=0.01 * np.linalg.norm(impulse) + 0.05)
     assert count >= NUM_ENVS
+
+
+@pytest.mark.parametrize("torque_scale", [1.0, 10.0])
+def test_torque_curriculum_reaches_the_joints(torque_scale):
+    """The joint torque the actuators deliver (qfrc_actuator) is bounded by the scaled
+    effort limit, and exceeds the hardware one when the exploration stage allows it."""
+    cfg = default_config()
+    cfg.num_envs, cfg.num_threads, cfg.seed = 4, 1, 2
+    cfg.pose_weights = {p: float(p == "squatting") for p in cfg.pose_weights}
+    cfg.curriculum.stage1_poses = ("squatting",)
+    cfg.curriculum.torque_scale_explore = torque_scale
+    env = RecoveryEnv(cfg)
+    dofs = env.model.jnt_dofadr[1:28]
+    peak = np.zeros(27)
+    for _ in range(5):  # zero action from a squat: the PD pulls hard towards standing
+        env.step(torch.zeros(4, env.num_actions))
+        tau = np.abs(env.sims.bind("qfrc_actuator")[:, dofs]).max(0)
+        peak = np.maximum(peak, tau)
+    limit = constants.EFFORT_LIMITS * torque_scale
+    assert np.all(peak <= limit * (1 + 1e-9))
+    knee = constants.JOINT_NAMES.index("left_knee_joint")
+    if torque_scale > 1:
+        assert peak[knee] > 1.5 * constants.EFFORT_LIMITS[knee]
+    else:
+        assert peak[knee] == pytest.approx(constants.EFFORT_LIMITS[knee])

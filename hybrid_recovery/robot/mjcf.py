@@ -121,7 +121,12 @@ def _add_floor(spec: mujoco.MjSpec) -> None:
 
 
 def _add_position_actuators(spec: mujoco.MjSpec) -> None:
-    """Adds actuator i = PD position servo on JOINT_NAMES[i] with KP[i], KD[i], ±τ_max."""
+    """Adds actuator i = PD position servo on JOINT_NAMES[i] with KP[i], KD[i], ±τ_max.
+
+    The actuator's force range is the one effort limit: a joint ``actuatorfrcrange`` from
+    the file is switched off, or it would clamp again whatever the actuator's range is
+    set to (the torque curriculum scales the actuators' ranges per simulation).
+    """
     for name, kp, kd, tau_max in zip(
         constants.JOINT_NAMES,
         constants.KP,
@@ -134,3 +139,4 @@ def _add_position_actuators(spec: mujoco.MjSpec) -> None:
         actuator.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE
         actuator.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
         actuator.forcerange = [-float(tau_max), float(tau_max)]
+        spec.joint(name).actfrclimited = mujoco.mjtLimited.mjLIMITED_FALSE
