@@ -27,8 +27,10 @@ def run_env_bench(n: int = 1024, repeat: int = 3, seed: int = 0, steps: int = 50
                   threads: int = 2, overrides: dict | None = None) -> BenchResult:
     """Times ``RecoveryEnv.step`` on ``n`` envs, then the bare Batch on the same states.
 
-    The physics-only rate steps the same persistent Batch (same states, same number of
-    substeps, same ctrl) with no observation, reward, contact-hull or reset work.
+    The physics-only rate restores the Batch to the state the timed env run started from
+    and replays the same controls and pushes, substeps and sensors, with no observation,
+    reward, contact-hull or reset work: the same physics, step for step (envs the env run
+    reset continue without the reset).
     """
     import mujoco
     import numpy as np
@@ -48,7 +50,18 @@ def run_env_bench(n: int = 1024, repeat: int = 3, seed: int = 0, steps: int = 50
         _timed(env, name, totals)
     best_env, best_phys = float("inf"), float("inf")
     best_totals: dict[str, float] = {}
+    state_fields = ("qpos", "qvel", "act", "history", "qacc_warmstart", "time")
+    inputs: list[tuple[np.ndarray, np.ndarray]] = []
+    physics = env._physics
+
+    def recording_physics():  # the controls and pushes of each step, as applied
+        inputs.append((env.ctrl.copy(), env.xfrc.copy()))
+        return physics()
+
+    env._physics = recording_physics
     for _ in range(repeat):
+        start = {f: env.sims.bind(f).copy() for f in state_fields}
+        inputs.clear()
         totals.clear()
         t = time.perf_counter()
         for a in actions:
@@ -56,12 +69,18 @@ def run_env_bench(n: int = 1024, repeat: int = 3, seed: int = 0, steps: int = 50
         elapsed = time.perf_counter() - t
         if elapsed < best_env:
             best_env, best_totals = elapsed, dict(totals)
-        ctrl = np.array(env.ctrl)
+        end = {f: env.sims.bind(f).copy() for f in state_fields}
+        for f, value in start.items():
+            env.sims.bind(f)[:] = value
+        env.sims.forward()  # derived fields of the restored state
         t = time.perf_counter()
-        for _ in range(steps):
-            env.ctrl[:] = ctrl
+        for ctrl, xfrc in inputs:
+            env.ctrl[:], env.xfrc[:] = ctrl, xfrc
             env.sims.step(nstep=cfg.decimation, stage=mujoco.mjtStage.mjSTAGE_VEL)
         best_phys = min(best_phys, time.perf_counter() - t)
+        for f, value in end.items():  # the env carries on from its own state
+            env.sims.bind(f)[:] = value
+        env.sims.forward()
     env_rate, phys_rate = steps * n / best_env, steps * n / best_phys
     totals = defaultdict(float, best_totals)
     other = best_env - sum(totals.values())

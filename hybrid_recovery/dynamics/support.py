@@ -127,8 +127,13 @@ def signed_distance_batched(
     c = np.asarray(contact_points, dtype=float)
     mask = np.asarray(mask, dtype=bool)
     n_env, m = mask.shape
-    if m == 0:
+    width = int(mask.sum(-1).max()) if n_env else 0
+    if m == 0 or width == 0:
         return np.full(n_env, float(no_contact))
+    if width < m:  # active points first, then only as many columns as the most active env
+        order = np.argsort(~mask, axis=-1, kind="stable")[:, :width]
+        c = np.take_along_axis(c[..., :2], order[..., None], 1)
+        mask, m = np.take_along_axis(mask, order, 1), width
     # Start at the lowest of the leftmost active points, a hull vertex.
     x = np.where(mask, c[..., 0], np.inf)
     y = np.where(mask & (x == x.min(-1, keepdims=True)), c[..., 1], np.inf)
