@@ -58,7 +58,7 @@ def run_env_bench(n: int = 1024, repeat: int = 3, seed: int = 0, steps: int = 50
         inputs.append((env.ctrl.copy(), env.xfrc.copy()))
         return physics()
 
-    env._physics = recording_physics
+    env._physics = recording_physics  # type: ignore[method-assign]
     for _ in range(repeat):
         start = {f: env.sims.bind(f).copy() for f in state_fields}
         inputs.clear()
