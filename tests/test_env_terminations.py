@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from hybrid_recovery.envs import RecoveryEnv, default_config
 from hybrid_recovery.envs.terminations import (
     SUCCESS_HEIGHT,
     SUCCESS_TILT,
@@ -136,3 +137,23 @@ def test_wiggling_on_the_ground_does_not_postpone_stuck():
     heights = 0.3 + 0.03 * np.sin(2 * np.pi * 1.0 * t)  # ±3 cm at 1 Hz, no net rise
     flags = run_stuck(heights)
     assert flags.any() and int(np.argmax(flags)) * DT <= 3.0
+
+
+def test_stood_up_drops_only_the_stillness_clause():
+    """Up and upright while bobbing at 0.15 m/s: stood up after 1 s, never a success."""
+    s = {"height": np.array([0.9]), "height_vel": np.array([0.15]),
+         "gravity_b": gravity_at_tilt(10.0)}
+    full, up = np.zeros(1), np.zeros(1)
+    for _ in range(60):
+        full, up = success_step(full, s, DT), success_step(up, s, DT, still=False)
+    assert full[0] == 0.0 and up[0] >= 1.0
+    tilted = dict(s, gravity_b=gravity_at_tilt(80.0))
+    assert not upright(tilted["height"], tilted["height_vel"], tilted["gravity_b"], still=False)
+
+
+def test_unknown_advance_on_is_refused():
+    cfg = default_config()
+    cfg.num_envs, cfg.num_threads = 2, 1
+    cfg.curriculum.advance_on = "up"
+    with pytest.raises(ValueError, match="advance_on"):
+        RecoveryEnv(cfg)

@@ -98,6 +98,11 @@ class RecoveryEnv(VecEnv):
         self.prev_com_vel = np.zeros((n, 3))
         self.upright_time = np.zeros(n)
         self.succeeded = np.zeros(n, dtype=bool)
+        self.up_time = np.zeros(n)
+        self.stood_up = np.zeros(n, dtype=bool)
+        if cfg.curriculum.advance_on not in ("stood_up", "success"):
+            raise ValueError(f"curriculum.advance_on must be 'stood_up' or 'success', got "
+                             f"'{cfg.curriculum.advance_on}'")
         self.episode_sums: dict[str, np.ndarray] = {}
         self.nan_resets = 0
         self._state: dict[str, np.ndarray] = {}
@@ -147,6 +152,8 @@ class RecoveryEnv(VecEnv):
             self.episode_sums[name] += np.where(failed, 0.0, value)
         self.upright_time = success_step(self.upright_time, s, self.dt)
         self.succeeded |= self.upright_time >= 1.0
+        self.up_time = success_step(self.up_time, s, self.dt, still=False)
+        self.stood_up |= self.up_time >= 1.0
         done = terminated | time_out
         extras = {"time_outs": torch.from_numpy(time_out), "log": {}}
         ids = np.flatnonzero(done)
@@ -314,6 +321,8 @@ class RecoveryEnv(VecEnv):
         self.episode_length_buf[torch.from_numpy(ids)] = 0
         self.upright_time[ids] = 0.0
         self.succeeded[ids] = False
+        self.up_time[ids] = 0.0
+        self.stood_up[ids] = False
 
     def _episode_log(self, ids: np.ndarray, dones_by: dict[str, np.ndarray]) -> dict:
         steps = np.maximum(self.episode_length_buf.numpy()[ids], 1)
@@ -324,11 +333,13 @@ class RecoveryEnv(VecEnv):
         for name in TERMINATIONS:
             log[f"termination/{name}"] = torch.from_numpy(dones_by[name][ids].astype(np.float32))
         log["episode/success"] = torch.from_numpy(self.succeeded[ids].astype(np.float32))
+        log["episode/stood_up"] = torch.from_numpy(self.stood_up[ids].astype(np.float32))
+        counted = self.stood_up if self.cfg.curriculum.advance_on == "stood_up" else self.succeeded
         log["episode/final_com_height"] = torch.from_numpy(self._state["height"][ids])
         if self.assist.active:  # the curriculum counts unassisted episodes only
-            self.assist.record(self.succeeded[ids])
+            self.assist.record(counted[ids])
         else:
-            self.curriculum.record(self.succeeded[ids])
+            self.curriculum.record(counted[ids])
         log["curriculum/assist_fraction"] = float(self.assist.fraction)
         log["curriculum/stage"] = float(self.curriculum.stage)
         log["curriculum/level"] = float(self.curriculum.level)

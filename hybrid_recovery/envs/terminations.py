@@ -17,20 +17,23 @@ SUCCESS_TIME = 1.0
 """How long all three must hold [s]."""
 
 
-def upright(height: np.ndarray, height_vel: np.ndarray, gravity_b: np.ndarray) -> np.ndarray:
+def upright(height: np.ndarray, height_vel: np.ndarray, gravity_b: np.ndarray,
+            still: bool = True) -> np.ndarray:
     """The paper's standing condition at one instant, shape (N,) bool.
 
     Args:
         height: CoM height h_c (N,) [m]; height_vel: ḣ_c (N,) [m/s];
         gravity_b: torso projected gravity (N, 3); tilt = arccos(−g_b,z).
+        still: include the |ḣ_c| < 0.1 m/s clause (False: up and upright only).
     """
-    tilt_ok = -gravity_b[..., 2] > np.cos(SUCCESS_TILT)
-    return (height > SUCCESS_HEIGHT) & (np.abs(height_vel) < SUCCESS_VERTICAL_SPEED) & tilt_ok
+    ok = (height > SUCCESS_HEIGHT) & (-gravity_b[..., 2] > np.cos(SUCCESS_TILT))
+    return ok & (np.abs(height_vel) < SUCCESS_VERTICAL_SPEED) if still else ok
 
 
-def success_step(upright_time: np.ndarray, state: dict, dt: float) -> np.ndarray:
+def success_step(upright_time: np.ndarray, state: dict, dt: float,
+                 still: bool = True) -> np.ndarray:
     """Time the standing condition has held without a break, after one step [s]."""
-    ok = upright(state["height"], state["height_vel"], state["gravity_b"])
+    ok = upright(state["height"], state["height_vel"], state["gravity_b"], still)
     return np.where(ok, upright_time + dt, 0.0)
 
 

@@ -19,7 +19,7 @@ CURVES: tuple[tuple[str, str], ...] = (
     ("episode/final_com_height", "CoM height at episode end [m]"),
     ("episode/success", "stand-up success (paper criterion)"),
     ("termination/stuck_low", "stuck-low rate"),
-    ("termination/timeout", "timeout rate"),
+    ("episode/stood_up", "stood up (h_c > 0.85 m, tilt < 72° for 1 s)"),
     ("curriculum/stage", "curriculum stage"),
 )
 """The TensorBoard tags plotted in ``curves.png`` and summarised in the record."""
