@@ -7,6 +7,7 @@ import json
 import numpy as np
 from torch.utils.tensorboard import SummaryWriter
 
+from hybrid_recovery.evaluation.ablation import ablation_table, run_metrics
 from hybrid_recovery.training.record import FINAL_WINDOW, plot_curves, read_scalars, training_record
 
 
@@ -23,6 +24,7 @@ def _fake_run(path):
         second.add_scalar("episode/success", it / 100.0, it)
         second.add_scalar("Perf/collection_time", 2.0, it)
         second.add_scalar("Perf/learning_time", 3.0, it)
+        second.add_scalar("Train/mean_reward", float(it), it)
     second.close()
     config = {"train_config": {"num_envs": 8, "num_steps_per_env": 24}}
     (path / "config.json").write_text(json.dumps(config))
@@ -46,3 +48,17 @@ def test_record_figures_up_to_the_checkpoint(tmp_path):
     assert np.isclose(final, np.mean(np.arange(50, 70) / 100.0))
     assert record["curriculum"] == {"stage": 1, "level": 0.0}
     assert plot_curves(tmp_path, tmp_path / "curves.png").stat().st_size > 10_000
+
+
+def test_ablation_metrics_and_curves_compare_runs(tmp_path):
+    full, reduced = tmp_path / "full", tmp_path / "reduced"
+    for run in (full, reduced):
+        run.mkdir()
+        _fake_run(run)
+    metrics = run_metrics(full, tail=0.1)  # last 8 of 80 iterations, each counted once
+    assert metrics["iterations"] == 30.0  # mean_reward logged for 50..79 only
+    assert np.isclose(metrics["episode/success"], np.mean(np.arange(72, 80) / 100.0))
+    table = ablation_table({"full": full, "reduced": reduced})
+    assert "| stand-up success | 0.755 | 0.755 |" in table
+    out = plot_curves({"full": full, "reduced": reduced}, tmp_path / "both.png")
+    assert out.stat().st_size > 10_000

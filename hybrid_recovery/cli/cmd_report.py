@@ -12,6 +12,7 @@ def _report(args: argparse.Namespace) -> int:
     from hybrid_recovery.evaluation.ablation import ablation_table
     from hybrid_recovery.evaluation.report import write_report
     from hybrid_recovery.evaluation.runner import load_results
+    from hybrid_recovery.training.record import plot_curves
 
     results = {}
     for path in args.results:
@@ -23,13 +24,15 @@ def _report(args: argparse.Namespace) -> int:
                 for item in args.runs)
     table = ablation_table(runs) if runs else None
     print(write_report(results, args.out, args.title, ablation=table))
+    if runs:
+        print(plot_curves(runs, Path(args.out) / "training_curves.png"))
     return 0
 
 
 def _configure(p: argparse.ArgumentParser) -> None:
     p.add_argument("results", nargs="*", help="results.jsonl files from eval/compare")
     p.add_argument("--runs", nargs="*", default=[], metavar="[LABEL=]RUN_DIR",
-                   help="training runs for the ablation table")
+                   help="training runs for the ablation table and training_curves.png")
     p.add_argument("--out", default="results/report")
     p.add_argument("--title", default="hybrid_recovery evaluation")
 

@@ -18,20 +18,19 @@ ABLATION_METRICS = (
 
 
 def run_metrics(run_dir: str | Path, tail: float = 0.1) -> dict[str, float]:
-    """Mean of each metric over the last ``tail`` fraction of a run's logged iterations."""
-    from tensorboard.backend.event_processing.event_accumulator import EventAccumulator
+    """Mean of each metric over the last ``tail`` fraction of a run's logged iterations
+    (each iteration once, also across resumes)."""
+    from hybrid_recovery.training.record import read_scalars
 
-    acc = EventAccumulator(str(run_dir), size_guidance={"scalars": 0})
-    acc.Reload()
-    tags = set(acc.Tags().get("scalars", []))
+    scalars = read_scalars(run_dir)
     out = {}
     for tag, _ in ABLATION_METRICS:
-        if tag in tags:
-            values = [e.value for e in acc.Scalars(tag)]
+        if tag in scalars:
+            values = scalars[tag][1]
             k = max(1, int(len(values) * tail))
-            out[tag] = sum(values[-k:]) / k
-    out["iterations"] = float(len(acc.Scalars("Train/mean_reward"))) \
-        if "Train/mean_reward" in tags else 0.0
+            out[tag] = float(values[-k:].mean())
+    out["iterations"] = float(len(scalars["Train/mean_reward"][0])) \
+        if "Train/mean_reward" in scalars else 0.0
     return out
 
 

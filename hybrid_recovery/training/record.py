@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import os
 import platform
+from collections.abc import Mapping
 from pathlib import Path
 
 import numpy as np
@@ -97,31 +98,43 @@ def _without_outcomes(state: dict | None) -> dict | None:
     return None if state is None else {k: v for k, v in state.items() if k != "outcomes"}
 
 
-def plot_curves(run_dir: str | Path, out: str | Path, title: str | None = None) -> Path:
-    """Writes the run's learning curves (:data:`CURVES`) against env steps as a PNG."""
+def plot_curves(runs: str | Path | Mapping[str, str | Path], out: str | Path,
+                title: str | None = None) -> Path:
+    """Writes learning curves (:data:`CURVES`) against env steps as a PNG.
+
+    Args:
+        runs: one run directory, or label → run directory to compare runs on one figure.
+        out: the PNG path.
+        title: figure title (default: the runs and their sizes).
+    """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    run_dir, out = Path(run_dir), Path(out)
-    scalars = read_scalars(run_dir)
-    config = json.loads((run_dir / "config.json").read_text())["train_config"]
-    per_iteration = config["num_envs"] * config["num_steps_per_env"]
+    if isinstance(runs, str | Path):
+        runs = {Path(runs).name: runs}
+    out = Path(out)
     fig, axes = plt.subplots(2, 3, figsize=(13, 6.5))
-    for ax, (tag, label) in zip(axes.flat, CURVES, strict=True):
+    for ax, (_, label) in zip(axes.flat, CURVES, strict=True):
         ax.set_title(label, fontsize=9)
         ax.set_xlabel("env steps [millions]", fontsize=8)
         ax.grid(alpha=0.3)
-        if tag not in scalars:
-            continue
-        steps, values = scalars[tag]
-        k = min(10, len(values))
-        smooth = np.convolve(values, np.ones(k) / k, mode="valid")
-        ax.plot(steps * per_iteration / 1e6, values, color="0.8", lw=0.6)
-        ax.plot(steps[k - 1:] * per_iteration / 1e6, smooth, lw=1.4)
-    fig.suptitle(title or f"{run_dir.name}: {config['num_envs']} envs (grey: per iteration, "
-                 "line: mean of 10)", fontsize=10)
+    sizes = []
+    for name, run_dir in runs.items():
+        scalars = read_scalars(run_dir)
+        config = json.loads((Path(run_dir) / "config.json").read_text())["train_config"]
+        per_iteration = config["num_envs"] * config["num_steps_per_env"]
+        sizes.append(f"{name}: {config['num_envs']} envs")
+        for ax, (tag, _) in zip(axes.flat, CURVES, strict=True):
+            if tag not in scalars:
+                continue
+            steps, values = scalars[tag]
+            k = min(10, len(values))
+            smooth = np.convolve(values, np.ones(k) / k, mode="valid")
+            ax.plot(steps[k - 1:] * per_iteration / 1e6, smooth, lw=1.4, label=name)
+    axes.flat[0].legend(fontsize=8)
+    fig.suptitle(title or "; ".join(sizes) + " (mean of 10 iterations)", fontsize=10)
     fig.tight_layout()
     fig.savefig(out, dpi=90)
     plt.close(fig)
