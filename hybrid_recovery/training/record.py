@@ -121,7 +121,7 @@ def plot_curves(runs: str | Path | Mapping[str, str | Path], out: str | Path,
         ax.set_xlabel("env steps [millions]", fontsize=8)
         ax.grid(alpha=0.3)
     sizes = []
-    for name, run_dir in runs.items():
+    for index, (name, run_dir) in enumerate(runs.items()):
         scalars = read_scalars(run_dir)
         config = json.loads((Path(run_dir) / "config.json").read_text())["train_config"]
         per_iteration = config["num_envs"] * config["num_steps_per_env"]
@@ -132,8 +132,11 @@ def plot_curves(runs: str | Path | Mapping[str, str | Path], out: str | Path,
             steps, values = scalars[tag]
             k = min(10, len(values))
             smooth = np.convolve(values, np.ones(k) / k, mode="valid")
-            ax.plot(steps[k - 1:] * per_iteration / 1e6, smooth, lw=1.4, label=name)
-    axes.flat[0].legend(fontsize=8)
+            ax.plot(steps[k - 1:] * per_iteration / 1e6, smooth, lw=1.4, label=name,
+                    color=f"C{index}")  # one colour per run in every panel
+    for ax in axes.flat:
+        if ax.lines:
+            ax.legend(fontsize=7)
     fig.suptitle(title or "; ".join(sizes) + " (mean of 10 iterations)", fontsize=10)
     fig.tight_layout()
     fig.savefig(out, dpi=90)
