@@ -189,3 +189,24 @@ def test_resume_uses_the_runs_saved_settings(tmp_path):
     assert "assist" in load_checkpoint(run / "latest.pt")["infos"]
     meta = json.loads((run / "config.json").read_text())
     assert meta["train_config"]["init_std"] == 0.5 and meta["train_config"]["iterations"] == 3
+
+
+def test_amendments_change_a_resumed_run_and_are_recorded(tmp_path):
+    run = tmp_path / "run"
+    train(run, _cfg())
+    with pytest.raises(ValueError, match="amendments change a resumed run"):
+        train(tmp_path / "new", _cfg(), amend={"ppo.entropy_coef": 0.0})
+    with pytest.raises(KeyError, match="unknown PPO setting 'entropy'"):
+        train(run, _cfg(iterations=3), resume=True, amend={"ppo.entropy": 0.0})
+    resumed = train(run, _cfg(iterations=3), resume=True,
+                    amend={"ppo.entropy_coef": 0.001, "rewards.w_cp": 0.5})
+    assert resumed.alg.entropy_coef == 0.001 and resumed.env.cfg.rewards.w_cp == 0.5
+    # a later plain resume keeps the amended settings and the history
+    again = train(run, _cfg(iterations=4), resume=True)
+    assert again.alg.entropy_coef == 0.001 and again.env.cfg.rewards.w_cp == 0.5
+    meta = json.loads((run / "config.json").read_text())
+    assert meta["amendments"] == [{"iteration": 2, "git_commit": meta["git_commit"],
+                                   "changes": {"ppo.entropy_coef": 0.001,
+                                               "rewards.w_cp": 0.5}}]
+    assert load_checkpoint(run / "latest.pt")["infos"]["meta"]["amendments"] == \
+        meta["amendments"]

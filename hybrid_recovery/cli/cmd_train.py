@@ -17,7 +17,7 @@ def _train(args: argparse.Namespace) -> int:
                       env_overrides=parse_overrides(args.set))
     cfg.ppo.symmetry = args.symmetry
     run_dir = Path(args.run_dir or f"runs/{args.variant}")
-    train(run_dir, cfg, resume=args.resume)
+    train(run_dir, cfg, resume=args.resume, amend=parse_overrides(args.amend))
     return 0
 
 
@@ -38,6 +38,9 @@ def _configure_train(p: argparse.ArgumentParser) -> None:
                    help="initial action noise std (the paper: 1.0)")
     p.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
                    help="EnvConfig overrides, e.g. rewards.w_cp=0 curriculum.window=256")
+    p.add_argument("--amend", nargs="*", default=[], metavar="KEY=VALUE",
+                   help="with --resume: change the run's saved settings from now on, "
+                        "e.g. ppo.entropy_coef=0.001 rewards.w_cp=0 (kept in config.json)")
 
 
 _train.configure = _configure_train  # type: ignore[attr-defined]

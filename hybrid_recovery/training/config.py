@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 
@@ -63,6 +63,26 @@ def train_config_from_dict(data: dict[str, Any]) -> TrainConfig:
     if "hidden_dims" in data:
         data["hidden_dims"] = tuple(data["hidden_dims"])
     return TrainConfig(ppo=ppo, **data)
+
+
+def amend_train_config(cfg: TrainConfig, changes: dict[str, Any]) -> TrainConfig:
+    """``cfg`` with ``changes`` applied: ``ppo.<field>`` keys set PPO hyperparameters, every
+    other key is a dotted EnvConfig override (checked when the env config is built).
+
+    Raises:
+        KeyError: naming an unknown PPO field.
+    """
+    ppo = asdict(cfg.ppo)
+    env = dict(cfg.env_overrides)
+    for key, value in changes.items():
+        if key.startswith("ppo."):
+            name = key.removeprefix("ppo.")
+            if name not in ppo:
+                raise KeyError(f"unknown PPO setting '{name}'; known: {sorted(ppo)}")
+            ppo[name] = value
+        else:
+            env[key] = value
+    return replace(cfg, ppo=PPOConfig(**ppo), env_overrides=env)
 
 
 def runner_dict(cfg: TrainConfig) -> dict[str, Any]:

@@ -16,7 +16,12 @@ from hybrid_recovery.envs.config import EnvConfig
 from hybrid_recovery.observation import ACTOR_OBS_DIM, ACTOR_TERMS
 from hybrid_recovery.robot.constants import JOINT_NAMES
 from hybrid_recovery.training.checkpoint import LATEST, atomic_save, load_checkpoint
-from hybrid_recovery.training.config import TrainConfig, runner_dict, train_config_from_dict
+from hybrid_recovery.training.config import (
+    TrainConfig,
+    amend_train_config,
+    runner_dict,
+    train_config_from_dict,
+)
 from hybrid_recovery.training.variants import variant_overrides
 
 
@@ -97,25 +102,47 @@ def _resumed_config(run_dir: Path, cfg: TrainConfig) -> TrainConfig:
     return saved
 
 
-def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False) -> RecoveryRunner:
+def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
+          amend: dict | None = None) -> RecoveryRunner:
     """Trains (or resumes) a run in ``run_dir`` up to ``cfg.iterations`` iterations.
 
-    The run directory holds ``config.json`` (resolved train and env configs, git commit),
-    TensorBoard logs, ``model_<it>.pt`` checkpoints and ``latest.pt``.
+    The run directory holds ``config.json`` (resolved train and env configs, git commit,
+    amendments), TensorBoard logs, ``model_<it>.pt`` checkpoints and ``latest.pt``.
+
+    Args:
+        amend: changes to a resumed run's saved settings (``ppo.<field>`` or dotted
+            EnvConfig keys, see :func:`amend_train_config`). Each amendment is kept in
+            ``config.json`` and the checkpoints' metadata with the iteration it starts at,
+            so a run's history stays readable.
+
+    Raises:
+        FileNotFoundError: resuming a directory without ``latest.pt``.
+        ValueError: ``amend`` without ``resume``.
     """
     run_dir = Path(run_dir)
     latest = run_dir / LATEST
+    if amend and not resume:
+        raise ValueError("amendments change a resumed run; give a new run its settings "
+                         "as options instead")
     if resume and not latest.is_file():
         raise FileNotFoundError(f"cannot resume: no {LATEST} in {run_dir}")
+    amendments = []
     if resume:
         cfg = _resumed_config(run_dir, cfg)
+        if (run_dir / "config.json").is_file():
+            amendments = json.loads((run_dir / "config.json").read_text()).get("amendments", [])
+        if amend:
+            cfg = amend_train_config(cfg, amend)
+            amendments.append({"iteration": int(load_checkpoint(latest)["iter"]) + 1,
+                               "changes": dict(amend), "git_commit": _git_commit()})
+            print(f"[hybrid-recovery] amending the run's settings: {amend}", flush=True)
     run_dir.mkdir(parents=True, exist_ok=True)
     torch.manual_seed(cfg.seed)
     torch.set_num_threads(cfg.num_threads)
     env_cfg = make_env_config(cfg)
     env = RecoveryEnv(env_cfg)
     critic_dim = int(env.get_observations()["critic"].shape[1])
-    meta = policy_meta(cfg, env_cfg, critic_dim)
+    meta = {**policy_meta(cfg, env_cfg, critic_dim), "amendments": amendments}
     (run_dir / "config.json").write_text(json.dumps(meta, indent=2, default=str))
     runner = RecoveryRunner(env, runner_dict(cfg), str(run_dir), meta, cfg.keep_checkpoints)
     if resume:
