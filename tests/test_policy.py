@@ -77,3 +77,33 @@ def test_deploy_runner_and_envs_package_load_without_torch(export):
                          timeout=120)
     assert run.returncode == 0, run.stderr[-2000:]
     assert run.stdout.strip() == "False"
+
+
+def test_the_shipped_policy_is_complete_and_runs():
+    from hybrid_recovery.policy import SHIPPED_POLICY, is_shipped, resolve_policy
+
+    assert is_shipped(), f"no policy.onnx in {SHIPPED_POLICY}"
+    assert resolve_policy("shipped") == SHIPPED_POLICY
+    size = sum(f.stat().st_size for f in SHIPPED_POLICY.iterdir())
+    assert size < 5e6, f"the shipped policy takes {size / 1e6:.1f} MB"
+    record = json.loads((SHIPPED_POLICY / "training_record.json").read_text())
+    for key in ("git_commit", "env_steps", "compute_time_s", "hardware", "train_config",
+                "env_config"):
+        assert record[key], key
+    assert (SHIPPED_POLICY / "curves.png").stat().st_size > 10_000
+    policy = OnnxPolicy(SHIPPED_POLICY)  # checks policy.json against this robot
+    action = policy.act(np.zeros((2, ACTOR_OBS_DIM)))
+    assert action.shape == (2, constants.NUM_JOINTS) and np.isfinite(action).all()
+
+
+def test_learned_controller_is_the_shipped_policy_and_says_when_there_is_none(monkeypatch,
+                                                                               tmp_path):
+    from hybrid_recovery.evaluation.controllers import make_controller
+    from hybrid_recovery.policy import SHIPPED_POLICY, shipped
+
+    assert make_controller("learned").policy.path == SHIPPED_POLICY / "policy.onnx"
+    monkeypatch.setattr(shipped, "SHIPPED_POLICY", tmp_path)
+    with pytest.raises(ValueError, match="no policy is shipped"):
+        make_controller("learned")
+    with pytest.raises(FileNotFoundError, match="no policy is shipped"):
+        shipped.resolve_policy("shipped")

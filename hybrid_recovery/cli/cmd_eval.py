@@ -70,7 +70,8 @@ def _common(p: argparse.ArgumentParser) -> None:
 
 
 def _configure_eval(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--controller", default="zero", help="zero | onnx:PATH | qp | hybrid:PATH")
+    p.add_argument("--controller", default="learned",
+                   help="learned (the shipped policy) | zero | onnx:PATH | qp | hybrid[:PATH]")
     p.add_argument("--out", default="results/eval")
     _common(p)
 

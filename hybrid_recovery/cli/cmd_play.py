@@ -14,8 +14,9 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 def _play(args: argparse.Namespace) -> int:
     from hybrid_recovery.envs.play import onnx_policy, play
+    from hybrid_recovery.policy import resolve_policy
 
-    policy = None if args.policy in (None, "zero") else onnx_policy(args.policy)
+    policy = None if args.policy in (None, "zero") else onnx_policy(resolve_policy(args.policy))
     frames = play(args.out, pose=args.pose, seconds=args.seconds, policy=policy,
                   push=args.push, push_angle=args.push_angle, push_time=args.push_time,
                   push_duration=args.push_duration, fps=args.fps, seed=args.seed,
@@ -27,8 +28,9 @@ def _play(args: argparse.Namespace) -> int:
 def _configure_play(p: argparse.ArgumentParser) -> None:
     from hybrid_recovery.envs.initial_states import POSES
 
-    p.add_argument("--policy", default="zero",
-                   help="policy.onnx (or its export directory); 'zero' for zero actions")
+    p.add_argument("--policy", default="shipped",
+                   help="policy.onnx (or its export directory); 'shipped' for the shipped "
+                        "policy; 'zero' for zero actions")
     p.add_argument("--pose", default="standing", choices=POSES, help="start pose")
     p.add_argument("--seconds", type=float, default=5.0, help="episode length [s]")
     p.add_argument("--out", default="play.mp4", help="video file to write")

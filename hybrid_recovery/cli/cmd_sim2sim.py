@@ -13,10 +13,13 @@ os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco (vid
 
 def _sim2sim(args: argparse.Namespace) -> int:
     from hybrid_recovery.deploy.sim2sim import Sim2SimConfig, run_sim2sim
+    from hybrid_recovery.policy import resolve_policy
 
     out = Path(args.out)
     policy = args.policy
-    if policy == "zero":
+    if policy != "zero":
+        policy = resolve_policy(policy)
+    else:
         from hybrid_recovery.deploy.stand_in import write_stand_in_policy
 
         policy = write_stand_in_policy(out / "stand_in_policy", "zero")
@@ -37,8 +40,9 @@ def _sim2sim(args: argparse.Namespace) -> int:
 def _configure(p: argparse.ArgumentParser) -> None:
     from hybrid_recovery.envs.initial_states import POSES
 
-    p.add_argument("--policy", required=True,
-                   help="exported policy directory, or 'zero' for a zero-action stand-in")
+    p.add_argument("--policy", default="shipped",
+                   help="exported policy directory, 'shipped' (the policy shipped in "
+                        "models/policies/h1_2_recovery) or 'zero' for a zero-action stand-in")
     p.add_argument("--model", default=None,
                    help="H1-2 MJCF (default: the project's model), e.g. "
                         "../shared/reference/unitree_h1_2/h1_2_handless.xml")

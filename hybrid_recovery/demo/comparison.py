@@ -17,9 +17,8 @@ from hybrid_recovery.evaluation.controllers import make_controller
 from hybrid_recovery.evaluation.report import write_report
 from hybrid_recovery.evaluation.scenario import Scenario
 from hybrid_recovery.evaluation.trial import run_trial
+from hybrid_recovery.policy import SHIPPED_POLICY, is_shipped
 
-SHIPPED_POLICY = Path(__file__).resolve().parents[2] / "models" / "policies" / "h1_2_recovery"
-"""Directory of the shipped policy (``policy.onnx`` + ``policy.json``)."""
 
 DEMO_SCENARIOS: dict[str, Scenario] = {
     "push 100 N forward": Scenario("standing", 100.0, 0.0, duration=4.0, noise=0.25),
@@ -40,10 +39,10 @@ def available_controllers() -> tuple[list[str], list[str]]:
         specs.append("qp")
     except ValueError as err:
         notes.append(f"QP baseline not available: {err}")
-    if (SHIPPED_POLICY / "policy.onnx").is_file():
-        specs.append(f"onnx:{SHIPPED_POLICY}")
+    if is_shipped():
+        specs.append("learned")
         if "qp" in specs:
-            specs.append(f"hybrid:{SHIPPED_POLICY}")
+            specs.append("hybrid")
     else:
         notes.append(f"No trained policy is shipped yet (no policy.onnx in {SHIPPED_POLICY}): "
                      "the learned and hybrid controllers are left out.")
@@ -86,7 +85,7 @@ def run_demo(out_dir: str | Path = "results/demo", video: bool = True) -> Path:
 
 def _label(spec: str) -> str:
     kind, _, _ = spec.partition(":")
-    return {"onnx": "learned policy", "hybrid": "hybrid (QP + policy)", "qp": "QP baseline",
+    return {"learned": "learned policy", "onnx": "learned policy", "hybrid": "hybrid (QP + policy)", "qp": "QP baseline",
             "zero": "PD hold (zero action)"}[kind]
 
 
@@ -113,7 +112,7 @@ def _video(spec: str, out: Path) -> None:
     except ImportError as err:
         print(f"note: no video ({err})")
         return
-    scenario = DEMO_SCENARIOS["push 450 N (fall)" if spec.startswith(("onnx", "hybrid"))
+    scenario = DEMO_SCENARIOS["push 450 N (fall)" if spec.startswith(("learned", "onnx", "hybrid"))
                                else "push 200 N forward"]
     try:
         path = render_trial(make_controller(spec), scenario, out / "demo.mp4", seconds=6.0)

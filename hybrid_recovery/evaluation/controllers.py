@@ -16,7 +16,7 @@ import numpy as np
 
 from hybrid_recovery.observation import actor_observation
 from hybrid_recovery.observation.mujoco_source import ProprioceptionMap, read_proprioception
-from hybrid_recovery.policy import OnnxPolicy, clip_action, joint_targets
+from hybrid_recovery.policy import SHIPPED, OnnxPolicy, clip_action, joint_targets, resolve_policy
 from hybrid_recovery.robot import constants
 
 
@@ -84,10 +84,27 @@ class OnnxPolicyController:
 
 
 def make_controller(spec: str):
-    """Builds a controller from ``zero``, ``onnx:PATH``, ``qp`` or ``hybrid:PATH``."""
+    """Builds a controller from ``zero``, ``learned``, ``onnx:PATH``, ``qp`` or
+    ``hybrid[:PATH]``.
+
+    ``learned`` is the shipped policy (``onnx:shipped``); ``hybrid`` without a path
+    supervises the shipped policy.
+
+    Raises:
+        ValueError: an unknown spec, a missing path, or ``learned`` with no shipped policy.
+    """
     kind, _, arg = spec.partition(":")
     if kind == "zero":
         return ZeroController()
+    if kind == "learned":
+        kind, arg = "onnx", SHIPPED
+    if kind == "hybrid" and not arg:
+        arg = SHIPPED
+    if kind in ("onnx", "hybrid") and arg == SHIPPED:
+        try:
+            arg = str(resolve_policy(arg))
+        except FileNotFoundError as err:
+            raise ValueError(str(err)) from err
     if kind == "onnx":
         if not arg:
             raise ValueError("onnx controller needs a path: onnx:PATH")
@@ -98,4 +115,5 @@ def make_controller(spec: str):
         except ImportError as err:
             raise ValueError(f"controller '{kind}' is not available: {err}") from err
         return eval_controller(kind, arg or None)
-    raise ValueError(f"unknown controller '{spec}': use zero, onnx:PATH, qp or hybrid:PATH")
+    raise ValueError(f"unknown controller '{spec}': use zero, learned, onnx:PATH, qp or "
+                     "hybrid[:PATH]")

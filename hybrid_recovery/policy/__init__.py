@@ -12,13 +12,18 @@ from hybrid_recovery.policy.description import (
     load_policy_description,
 )
 from hybrid_recovery.policy.onnx_policy import OnnxPolicy
+from hybrid_recovery.policy.shipped import SHIPPED, SHIPPED_POLICY, is_shipped, resolve_policy
 
 __all__ = [
     "ACTION_CLIP",
     "POLICY_FORMAT",
     "OnnxPolicy",
+    "SHIPPED",
+    "SHIPPED_POLICY",
     "check_meta",
     "clip_action",
+    "is_shipped",
     "joint_targets",
     "load_policy_description",
+    "resolve_policy",
 ]

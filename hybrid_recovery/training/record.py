@@ -88,6 +88,7 @@ def training_record(run_dir: str | Path, checkpoint: dict) -> dict:
         "compute_time_s": round(compute, 2),
         "hardware": hardware(),
         "train_config": meta["train_config"],
+        "env_config": meta.get("env_config"),
         "amendments": meta.get("amendments", []),
         "curriculum": _without_outcomes(checkpoint["infos"].get("curriculum")),
         "assist": _without_outcomes(checkpoint["infos"].get("assist")),
