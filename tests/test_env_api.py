@@ -75,6 +75,7 @@ def test_every_pose_resets_and_steps(env, pose):
     seen = run_episodes(env, pose, lambda k: zero if k % 2 else
                         torch.rand(NUM_ENVS, env.num_actions, generator=gen) * 4 - 2)
     assert seen["dones"] >= NUM_ENVS  # every env finished at least one episode
+    assert f"pose_stood_up/{pose}" in seen["logs"][-1][0]
     active = {f"reward/{name}" for name, weight_field, _ in REWARD_TERMS
               if getattr(env.cfg.rewards, weight_field) != 0.0}
     for log, done, time_outs in seen["logs"]:
@@ -85,6 +86,10 @@ def test_every_pose_resets_and_steps(env, pose):
             assert torch.isfinite(log[key]).all()
         np.testing.assert_array_equal(log["termination/timeout"].numpy(),
                                       time_outs[done].numpy().astype(np.float32))
+        for kind in ("success", "stood_up"):  # by start pose: a partition of the episodes
+            parts = [log[f"pose_{kind}/{p}"] for p in POSES if f"pose_{kind}/{p}" in log]
+            assert sum(len(v) for v in parts) == n_done
+            assert sorted(torch.cat(parts).tolist()) == sorted(log[f"episode/{kind}"].tolist())
         causes = torch.stack([log[f"termination/{t}"] for t in TERMINATIONS])
         assert (causes.sum(0) >= 1).all()  # every finished episode has a cause
         assert (causes[0] + causes[1:].amax(0) <= 1).all()  # a timeout is never also a failure

@@ -25,6 +25,8 @@ def _fake_run(path):
         second.add_scalar("Perf/collection_time", 2.0, it)
         second.add_scalar("Perf/learning_time", 3.0, it)
         second.add_scalar("Train/mean_reward", float(it), it)
+        if it % 2:  # logged only in iterations where such an episode ended
+            second.add_scalar("pose_stood_up/supine", 1.0 if it >= 60 else 0.5, it)
     second.close()
     config = {"train_config": {"num_envs": 8, "num_steps_per_env": 24}}
     (path / "config.json").write_text(json.dumps(config))
@@ -46,6 +48,8 @@ def test_record_figures_up_to_the_checkpoint(tmp_path):
     assert record["compute_time_s"] == 70 * 5.0  # iterations 0..69, each counted once
     final = record[f"final_mean_of_last_{FINAL_WINDOW}_iterations"]["episode/success"]
     assert np.isclose(final, np.mean(np.arange(50, 70) / 100.0))
+    supine = record[f"final_mean_of_last_{FINAL_WINDOW}_iterations"]["pose_stood_up/supine"]
+    assert np.isclose(supine, np.mean([0.5] * 5 + [1.0] * 5))  # odd iterations 51..69
     assert record["curriculum"] == {"stage": 1, "level": 0.0}
     assert plot_curves(tmp_path, tmp_path / "curves.png").stat().st_size > 10_000
 

@@ -100,6 +100,8 @@ class RecoveryEnv(VecEnv):
         self.succeeded = np.zeros(n, dtype=bool)
         self.up_time = np.zeros(n)
         self.stood_up = np.zeros(n, dtype=bool)
+        self.start_pose = np.zeros(n, dtype=int)
+        """Index into ``POSES`` of each env's episode start."""
         if cfg.curriculum.advance_on not in ("stood_up", "success"):
             raise ValueError(f"curriculum.advance_on must be 'stood_up' or 'success', got "
                              f"'{cfg.curriculum.advance_on}'")
@@ -284,6 +286,7 @@ class RecoveryEnv(VecEnv):
     def _reset(self, ids: np.ndarray) -> None:
         n, dr, rng = len(ids), self.cfg.domain_rand, self.rng
         poses = self._sample_poses(n)
+        self.start_pose[ids] = poses
         qpos = np.empty((n, self.model.nq))
         for k, name in enumerate(POSES):
             rows = np.flatnonzero(poses == k)
@@ -334,6 +337,13 @@ class RecoveryEnv(VecEnv):
             log[f"termination/{name}"] = torch.from_numpy(dones_by[name][ids].astype(np.float32))
         log["episode/success"] = torch.from_numpy(self.succeeded[ids].astype(np.float32))
         log["episode/stood_up"] = torch.from_numpy(self.stood_up[ids].astype(np.float32))
+        for k, pose in enumerate(POSES):  # by start pose, only when such episodes ended
+            mine = ids[self.start_pose[ids] == k]
+            if len(mine):
+                log[f"pose_success/{pose}"] = torch.from_numpy(
+                    self.succeeded[mine].astype(np.float32))
+                log[f"pose_stood_up/{pose}"] = torch.from_numpy(
+                    self.stood_up[mine].astype(np.float32))
         counted = self.stood_up if self.cfg.curriculum.advance_on == "stood_up" else self.succeeded
         log["episode/final_com_height"] = torch.from_numpy(self._state["height"][ids])
         if self.assist.active:  # the curriculum counts unassisted episodes only

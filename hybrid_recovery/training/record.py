@@ -80,8 +80,9 @@ def training_record(run_dir: str | Path, checkpoint: dict) -> dict:
         return values[steps <= iteration]
 
     compute = float(upto("Perf/collection_time").sum() + upto("Perf/learning_time").sum())
-    final = {tag: float(np.mean(upto(tag)[-FINAL_WINDOW:])) for tag, _ in CURVES
-             if len(upto(tag))}
+    by_pose = sorted(t for t in scalars if t.startswith(("pose_success/", "pose_stood_up/")))
+    final = {tag: float(np.mean(upto(tag)[-FINAL_WINDOW:]))
+             for tag in [t for t, _ in CURVES] + by_pose if len(upto(tag))}
     return {
         "variant": meta["variant"], "git_commit": meta["git_commit"],
         "iteration": iteration, "env_steps": checkpoint["infos"].get("env_steps"),
