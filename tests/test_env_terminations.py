@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import torch
 
 from hybrid_recovery.envs import RecoveryEnv, default_config
 from hybrid_recovery.envs.terminations import (
@@ -157,3 +158,28 @@ def test_unknown_advance_on_is_refused():
     cfg.curriculum.advance_on = "up"
     with pytest.raises(ValueError, match="advance_on"):
         RecoveryEnv(cfg)
+
+
+def test_unknown_advance_poses_are_refused():
+    cfg = default_config()
+    cfg.num_envs, cfg.num_threads = 2, 1
+    cfg.curriculum.advance_poses = ("standing", "crawling")
+    with pytest.raises(ValueError, match=r"advance_poses has unknown poses \['crawling'\]"):
+        RecoveryEnv(cfg)
+
+
+@pytest.mark.parametrize("gated", [None, ("standing",)])
+def test_only_episodes_from_the_advance_poses_count_for_the_curriculum(gated):
+    cfg = default_config()
+    cfg.num_envs, cfg.num_threads, cfg.episode_length_s = 4, 1, 0.2
+    cfg.pose_weights = {"supine": 1.0}
+    cfg.curriculum.stage1_poses = ("supine",)
+    cfg.curriculum.advance_poses = gated
+    cfg.curriculum.window = 10_000  # never full: the outcomes stay to be counted
+    env = RecoveryEnv(cfg)
+    ended = 0
+    for _ in range(25):
+        _, _, done, _ = env.step(torch.zeros(4, env.num_actions))
+        ended += int(done.sum())
+    assert ended >= 4
+    assert len(env.curriculum._outcomes) == (ended if gated is None else 0)

@@ -198,15 +198,22 @@ def test_amendments_change_a_resumed_run_and_are_recorded(tmp_path):
         train(tmp_path / "new", _cfg(), amend={"ppo.entropy_coef": 0.0})
     with pytest.raises(KeyError, match="unknown PPO setting 'entropy'"):
         train(run, _cfg(iterations=3), resume=True, amend={"ppo.entropy": 0.0})
-    resumed = train(run, _cfg(iterations=3), resume=True,
-                    amend={"ppo.entropy_coef": 0.001, "rewards.w_cp": 0.5})
+    with pytest.raises(KeyError, match="'hidden_dims' cannot change in a resumed run"):
+        train(run, _cfg(iterations=3), resume=True, amend={"train.hidden_dims": [8]})
+    changes = {"ppo.entropy_coef": 0.001, "rewards.w_cp": 0.5, "train.max_std": 0.3}
+    resumed = train(run, _cfg(iterations=3), resume=True, amend=changes)
     assert resumed.alg.entropy_coef == 0.001 and resumed.env.cfg.rewards.w_cp == 0.5
+    # the noise std is capped in sampling (the run started at init_std 1.0)
+    obs = resumed.env.get_observations()
+    resumed.alg.act(obs)
+    std = resumed.alg.get_policy().output_std
+    assert torch.allclose(std, torch.full_like(std, 0.3))
     # a later plain resume keeps the amended settings and the history
     again = train(run, _cfg(iterations=4), resume=True)
     assert again.alg.entropy_coef == 0.001 and again.env.cfg.rewards.w_cp == 0.5
     meta = json.loads((run / "config.json").read_text())
+    assert meta["train_config"]["max_std"] == 0.3
     assert meta["amendments"] == [{"iteration": 2, "git_commit": meta["git_commit"],
-                                   "changes": {"ppo.entropy_coef": 0.001,
-                                               "rewards.w_cp": 0.5}}]
+                                   "changes": changes}]
     assert load_checkpoint(run / "latest.pt")["infos"]["meta"]["amendments"] == \
         meta["amendments"]

@@ -13,7 +13,7 @@ def _train(args: argparse.Namespace) -> int:
 
     cfg = TrainConfig(variant=args.variant, num_envs=args.num_envs, iterations=args.iterations,
                       seed=args.seed, save_interval=args.save_interval,
-                      num_threads=args.threads, init_std=args.init_std,
+                      num_threads=args.threads, init_std=args.init_std, max_std=args.max_std,
                       env_overrides=parse_overrides(args.set))
     cfg.ppo.symmetry = args.symmetry
     run_dir = Path(args.run_dir or f"runs/{args.variant}")
@@ -39,8 +39,11 @@ def _configure_train(p: argparse.ArgumentParser) -> None:
     p.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
                    help="EnvConfig overrides, e.g. rewards.w_cp=0 curriculum.window=256")
     p.add_argument("--amend", nargs="*", default=[], metavar="KEY=VALUE",
-                   help="with --resume: change the run's saved settings from now on, "
-                        "e.g. ppo.entropy_coef=0.001 rewards.w_cp=0 (kept in config.json)")
+                   help="with --resume: change the run's saved settings from now on, e.g. "
+                        "ppo.entropy_coef=0.001 train.max_std=0.4 rewards.w_cp=0 (kept in "
+                        "config.json)")
+    p.add_argument("--max-std", type=float, default=None,
+                   help="upper bound of the action noise std (default: unbounded)")
 
 
 _train.configure = _configure_train  # type: ignore[attr-defined]

@@ -105,6 +105,10 @@ class RecoveryEnv(VecEnv):
         if cfg.curriculum.advance_on not in ("stood_up", "success"):
             raise ValueError(f"curriculum.advance_on must be 'stood_up' or 'success', got "
                              f"'{cfg.curriculum.advance_on}'")
+        unknown = set(cfg.curriculum.advance_poses or ()) - set(POSES)
+        if unknown:
+            raise ValueError(f"curriculum.advance_poses has unknown poses {sorted(unknown)}; "
+                             f"known: {list(POSES)}")
         self.episode_sums: dict[str, np.ndarray] = {}
         self.nan_resets = 0
         self._state: dict[str, np.ndarray] = {}
@@ -345,11 +349,14 @@ class RecoveryEnv(VecEnv):
                 log[f"pose_stood_up/{pose}"] = torch.from_numpy(
                     self.stood_up[mine].astype(np.float32))
         counted = self.stood_up if self.cfg.curriculum.advance_on == "stood_up" else self.succeeded
+        gated = self.cfg.curriculum.advance_poses
+        scored = ids if gated is None else ids[np.isin(np.asarray(POSES)[self.start_pose[ids]],
+                                                        gated)]
         log["episode/final_com_height"] = torch.from_numpy(self._state["height"][ids])
         if self.assist.active:  # the curriculum counts unassisted episodes only
-            self.assist.record(counted[ids])
+            self.assist.record(counted[scored])
         else:
-            self.curriculum.record(counted[ids])
+            self.curriculum.record(counted[scored])
         log["curriculum/assist_fraction"] = float(self.assist.fraction)
         log["curriculum/stage"] = float(self.curriculum.stage)
         log["curriculum/level"] = float(self.curriculum.level)

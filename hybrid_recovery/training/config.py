@@ -39,6 +39,10 @@ class TrainConfig:
     hidden_dims: tuple[int, ...] = (512, 256, 128)
     activation: str = "elu"
     init_std: float = 1.0
+    max_std: float | None = None
+    """Upper bound of the action-noise std (rsl-rl's ``std_range``); None: unbounded, as in
+    the paper. The std is a learned parameter; this caps its use in sampling and in the
+    PPO ratio."""
     obs_normalization: bool = True
     save_interval: int = 50
     """Iterations between checkpoints; a kill loses at most this many."""
@@ -65,24 +69,37 @@ def train_config_from_dict(data: dict[str, Any]) -> TrainConfig:
     return TrainConfig(ppo=ppo, **data)
 
 
+AMENDABLE = ("max_std", "save_interval", "keep_checkpoints", "num_steps_per_env")
+"""TrainConfig fields a resumed run may change (``train.<field>``); the others fix the
+networks' shapes or the run's identity."""
+
+
 def amend_train_config(cfg: TrainConfig, changes: dict[str, Any]) -> TrainConfig:
-    """``cfg`` with ``changes`` applied: ``ppo.<field>`` keys set PPO hyperparameters, every
-    other key is a dotted EnvConfig override (checked when the env config is built).
+    """``cfg`` with ``changes`` applied: ``ppo.<field>`` keys set PPO hyperparameters,
+    ``train.<field>`` keys the :data:`AMENDABLE` TrainConfig fields, every other key is a
+    dotted EnvConfig override (checked when the env config is built).
 
     Raises:
-        KeyError: naming an unknown PPO field.
+        KeyError: naming an unknown PPO field or a TrainConfig field that cannot change.
     """
     ppo = asdict(cfg.ppo)
     env = dict(cfg.env_overrides)
+    train: dict[str, Any] = {}
     for key, value in changes.items():
-        if key.startswith("ppo."):
+        if key.startswith("train."):
+            name = key.removeprefix("train.")
+            if name not in AMENDABLE:
+                raise KeyError(f"'{name}' cannot change in a resumed run; amendable: "
+                               f"{list(AMENDABLE)}")
+            train[name] = value
+        elif key.startswith("ppo."):
             name = key.removeprefix("ppo.")
             if name not in ppo:
                 raise KeyError(f"unknown PPO setting '{name}'; known: {sorted(ppo)}")
             ppo[name] = value
         else:
             env[key] = value
-    return replace(cfg, ppo=PPOConfig(**ppo), env_overrides=env)
+    return replace(cfg, ppo=PPOConfig(**ppo), env_overrides=env, **train)
 
 
 def runner_dict(cfg: TrainConfig) -> dict[str, Any]:
@@ -97,12 +114,15 @@ def runner_dict(cfg: TrainConfig) -> dict[str, Any]:
         }
     model = {"class_name": "MLPModel", "hidden_dims": list(cfg.hidden_dims),
              "activation": cfg.activation, "obs_normalization": cfg.obs_normalization}
+    distribution: dict[str, Any] = {"class_name": "GaussianDistribution",
+                                    "init_std": cfg.init_std}
+    if cfg.max_std is not None:
+        distribution["std_range"] = (1e-6, float(cfg.max_std))
     return {
         "num_steps_per_env": cfg.num_steps_per_env,
         "save_interval": cfg.save_interval,
         "obs_groups": {"actor": ["policy"], "critic": ["critic"]},
-        "actor": {**model, "distribution_cfg": {"class_name": "GaussianDistribution",
-                                                "init_std": cfg.init_std}},
+        "actor": {**model, "distribution_cfg": distribution},
         "critic": dict(model),
         "algorithm": algorithm,
         "multi_gpu": None,
