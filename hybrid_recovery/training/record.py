@@ -22,6 +22,8 @@ CURVES: tuple[tuple[str, str], ...] = (
     ("termination/stuck_low", "stuck-low rate"),
     ("episode/stood_up", "stood up (h_c > 0.85 m, tilt < 72° for 1 s)"),
     ("curriculum/stage", "curriculum stage"),
+    ("curriculum/torque_scale", "torque limit × hardware"),
+    ("Policy/mean_std", "action noise std"),
 )
 """The TensorBoard tags plotted in ``curves.png`` and summarised in the record."""
 
@@ -118,29 +120,43 @@ def plot_curves(runs: str | Path | Mapping[str, str | Path], out: str | Path,
     if isinstance(runs, str | Path):
         runs = {Path(runs).name: runs}
     out = Path(out)
-    fig, axes = plt.subplots(2, 3, figsize=(13, 6.5))
-    for ax, (_, label) in zip(axes.flat, CURVES, strict=True):
+    fig, axes = plt.subplots(3, 3, figsize=(13, 9.5))
+    panels = [*CURVES, ("pose_stood_up/", "stood up, by start pose (first run)")]
+    for ax, (_, label) in zip(axes.flat, panels, strict=True):
         ax.set_title(label, fontsize=9)
         ax.set_xlabel("env steps [millions]", fontsize=8)
         ax.grid(alpha=0.3)
     sizes = []
     for index, (name, run_dir) in enumerate(runs.items()):
         scalars = read_scalars(run_dir)
-        config = json.loads((Path(run_dir) / "config.json").read_text())["train_config"]
+        meta = json.loads((Path(run_dir) / "config.json").read_text())
+        config = meta["train_config"]
         per_iteration = config["num_envs"] * config["num_steps_per_env"]
         sizes.append(f"{name}: {config['num_envs']} envs")
-        for ax, (tag, _) in zip(axes.flat, CURVES, strict=True):
-            if tag not in scalars:
-                continue
+
+        def draw(ax, tag: str, **style) -> None:
             steps, values = scalars[tag]
             k = min(10, len(values))
             smooth = np.convolve(values, np.ones(k) / k, mode="valid")
-            ax.plot(steps[k - 1:] * per_iteration / 1e6, smooth, lw=1.4, label=name,
-                    color=f"C{index}")  # one colour per run in every panel
+            ax.plot(steps[k - 1:] * per_iteration / 1e6, smooth, lw=1.4, **style)
+
+        for ax, (tag, _) in zip(axes.flat, CURVES, strict=False):
+            if tag in scalars:  # one colour per run in every panel
+                draw(ax, tag, label=name, color=f"C{index}")
+        if index == 0:
+            for k, tag in enumerate(sorted(t for t in scalars if t.startswith("pose_stood_up/"))):
+                draw(axes.flat[-1], tag, label=tag.split("/")[1], color=f"C{k}")
+        for number, amendment in enumerate(meta.get("amendments", []), 1):
+            x = amendment["iteration"] * per_iteration / 1e6
+            for ax in axes.flat:
+                ax.axvline(x, color=f"C{index}", ls=":", lw=1)
+            axes.flat[0].annotate(f"A{number}", (x, 1.0), xycoords=("data", "axes fraction"),
+                                  fontsize=7, ha="center", va="bottom", color=f"C{index}")
     for ax in axes.flat:
         if ax.lines:
             ax.legend(fontsize=7)
-    fig.suptitle(title or "; ".join(sizes) + " (mean of 10 iterations)", fontsize=10)
+    fig.suptitle((title or "; ".join(sizes)) + " (mean of 10 iterations; A<n>: the run's "
+                 "amendments, see its config.json)", fontsize=10)
     fig.tight_layout()
     fig.savefig(out, dpi=90)
     plt.close(fig)
