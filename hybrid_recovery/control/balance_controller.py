@@ -149,6 +149,14 @@ class BalanceController:
         return self._reader.read(data)
 
     # ------------------------------------------------------------------ the tick
+    def _begin(self, model: mujoco.MjModel, data: mujoco.MjData):
+        """Checks and reads the state (resetting on a new model): (state, t, down reason)."""
+        check_state(data)
+        if self._model is not model:
+            self.reset(model, data)
+        state = self._read(data)
+        return state, float(data.time), self.down_reason(state)
+
     def __call__(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
         """One control tick: joint torques τ, shape (27,) [N·m], motor order.
 
@@ -156,12 +164,7 @@ class BalanceController:
             ValueError: On a non-finite state (:data:`NAN_STATE_MESSAGE`).
         """
         start = time.perf_counter()
-        check_state(data)
-        if self._model is not model:
-            self.reset(model, data)
-        state = self._read(data)
-        t = float(data.time)
-        reason = self.down_reason(state)
+        state, t, reason = self._begin(model, data)
         if reason:
             return self._not_applicable(state, t, reason, start)
         if self._down:  # back up (e.g. after the policy): start over from this stance
@@ -202,12 +205,7 @@ class BalanceController:
         Uses the stance and references of the last reset; ``strategy`` is the one the
         controller would start from.
         """
-        check_state(data)
-        if self._model is not model:
-            self.reset(model, data)
-        state = self._read(data)
-        t = float(data.time)
-        reason = self.down_reason(state)
+        state, t, reason = self._begin(model, data)
         if reason:
             return TickDiagnostics(t, False, reason, Strategy.NOT_APPLICABLE,
                                    Capturability.NONE, self._phase, com=state.com,
