@@ -68,6 +68,15 @@ def test_wilson_interval_known_values():
     assert lo == pytest.approx(0.9170, abs=1e-3) and hi == pytest.approx(0.9481, abs=1e-3)
 
 
+def test_wilson_interval_always_contains_the_rate():
+    """Error bars (rate − lo, hi − rate) are never negative; at 60 of 60, rounding once
+    gave hi = 1 − 1e-16 and broke the sweep report's bar chart."""
+    for n in range(1, 501):
+        for k in (0, n // 3, n):
+            lo, hi = wilson_interval(k, n)
+            assert lo <= k / n <= hi, (k, n)
+
+
 def _trace(n=200, push=1.0):
     t = np.arange(n) * DT
     contacts = np.zeros((n, len(CONTACT_BODIES)), dtype=bool)

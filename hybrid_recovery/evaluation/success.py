@@ -52,4 +52,5 @@ def wilson_interval(successes: int, trials: int, z: float = 1.96) -> tuple[float
     denom = 1 + z * z / trials
     centre = (p + z * z / (2 * trials)) / denom
     half = z * np.sqrt(p * (1 - p) / trials + z * z / (4 * trials * trials)) / denom
-    return (float(max(0.0, centre - half)), float(min(1.0, centre + half)))
+    # the interval contains p exactly (rounding would leave 1 − 1e-16 at n of n)
+    return (float(min(p, max(0.0, centre - half))), float(max(p, min(1.0, centre + half))))
