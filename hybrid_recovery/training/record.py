@@ -121,7 +121,7 @@ def plot_curves(runs: str | Path | Mapping[str, str | Path], out: str | Path,
         runs = {Path(runs).name: runs}
     out = Path(out)
     fig, axes = plt.subplots(3, 3, figsize=(13, 9.5))
-    panels = [*CURVES, ("pose_stood_up/", "stood up, by start pose (first run)")]
+    panels = [*CURVES, ("pose_stood_up/", "stood up, by start pose")]
     for ax, (_, label) in zip(axes.flat, panels, strict=True):
         ax.set_title(label, fontsize=9)
         ax.set_xlabel("env steps [millions]", fontsize=8)
@@ -143,8 +143,10 @@ def plot_curves(runs: str | Path | Mapping[str, str | Path], out: str | Path,
         for ax, (tag, _) in zip(axes.flat, CURVES, strict=False):
             if tag in scalars:  # one colour per run in every panel
                 draw(ax, tag, label=name, color=f"C{index}")
-        if index == 0:
-            for k, tag in enumerate(sorted(t for t in scalars if t.startswith("pose_stood_up/"))):
+        by_pose = sorted(t for t in scalars if t.startswith("pose_stood_up/"))
+        if by_pose and not axes.flat[-1].lines:  # the first run that logs them
+            axes.flat[-1].set_title(f"stood up, by start pose ({name})", fontsize=9)
+            for k, tag in enumerate(by_pose):
                 draw(axes.flat[-1], tag, label=tag.split("/")[1], color=f"C{k}")
         for number, amendment in enumerate(meta.get("amendments", []), 1):
             x = amendment["iteration"] * per_iteration / 1e6
