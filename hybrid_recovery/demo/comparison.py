@@ -19,7 +19,6 @@ from hybrid_recovery.evaluation.scenario import Scenario
 from hybrid_recovery.evaluation.trial import run_trial
 from hybrid_recovery.policy import SHIPPED_POLICY, is_shipped
 
-
 DEMO_SCENARIOS: dict[str, Scenario] = {
     "push 100 N forward": Scenario("standing", 100.0, 0.0, duration=4.0, noise=0.25),
     "push 200 N forward": Scenario("standing", 200.0, 0.0, duration=4.0, noise=0.25),
@@ -85,7 +84,8 @@ def run_demo(out_dir: str | Path = "results/demo", video: bool = True) -> Path:
 
 def _label(spec: str) -> str:
     kind, _, _ = spec.partition(":")
-    return {"learned": "learned policy", "onnx": "learned policy", "hybrid": "hybrid (QP + policy)", "qp": "QP baseline",
+    return {"learned": "learned policy", "onnx": "learned policy",
+            "hybrid": "hybrid (QP + policy)", "qp": "QP baseline",
             "zero": "PD hold (zero action)"}[kind]
 
 

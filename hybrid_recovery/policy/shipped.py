@@ -8,7 +8,7 @@ SHIPPED_POLICY = Path(__file__).resolve().parents[2] / "models" / "policies" / "
 """Directory of the shipped policy: ``policy.onnx``, ``policy.json``, training record."""
 
 SHIPPED = "shipped"
-"""The policy argument (``--policy shipped``, ``onnx:shipped``) that means :data:`SHIPPED_POLICY`."""
+"""The policy argument (``--policy shipped``, ``onnx:shipped``) naming :data:`SHIPPED_POLICY`."""
 
 
 def is_shipped() -> bool:

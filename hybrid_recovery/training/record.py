@@ -103,6 +103,14 @@ def _without_outcomes(state: dict | None) -> dict | None:
     return None if state is None else {k: v for k, v in state.items() if k != "outcomes"}
 
 
+def _draw(ax, scalar: tuple[np.ndarray, np.ndarray], per_iteration: int, **style) -> None:
+    """One scalar against env steps [millions], as a running mean of 10 iterations."""
+    steps, values = scalar
+    k = min(10, len(values))
+    smooth = np.convolve(values, np.ones(k) / k, mode="valid")
+    ax.plot(steps[k - 1:] * per_iteration / 1e6, smooth, lw=1.4, **style)
+
+
 def plot_curves(runs: str | Path | Mapping[str, str | Path], out: str | Path,
                 title: str | None = None) -> Path:
     """Writes learning curves (:data:`CURVES`) against env steps as a PNG.
@@ -134,20 +142,15 @@ def plot_curves(runs: str | Path | Mapping[str, str | Path], out: str | Path,
         per_iteration = config["num_envs"] * config["num_steps_per_env"]
         sizes.append(f"{name}: {config['num_envs']} envs")
 
-        def draw(ax, tag: str, **style) -> None:
-            steps, values = scalars[tag]
-            k = min(10, len(values))
-            smooth = np.convolve(values, np.ones(k) / k, mode="valid")
-            ax.plot(steps[k - 1:] * per_iteration / 1e6, smooth, lw=1.4, **style)
-
         for ax, (tag, _) in zip(axes.flat, CURVES, strict=False):
             if tag in scalars:  # one colour per run in every panel
-                draw(ax, tag, label=name, color=f"C{index}")
+                _draw(ax, scalars[tag], per_iteration, label=name, color=f"C{index}")
         by_pose = sorted(t for t in scalars if t.startswith("pose_stood_up/"))
         if by_pose and not axes.flat[-1].lines:  # the first run that logs them
             axes.flat[-1].set_title(f"stood up, by start pose ({name})", fontsize=9)
             for k, tag in enumerate(by_pose):
-                draw(axes.flat[-1], tag, label=tag.split("/")[1], color=f"C{k}")
+                _draw(axes.flat[-1], scalars[tag], per_iteration, label=tag.split("/")[1],
+                      color=f"C{k}")
         for number, amendment in enumerate(meta.get("amendments", []), 1):
             x = amendment["iteration"] * per_iteration / 1e6
             for ax in axes.flat:
