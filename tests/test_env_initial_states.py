@@ -12,6 +12,7 @@ kneeling   0.30 – 0.60   0.28 – 0.68
 sitting    0.15 – 0.30   0.15 – 0.40
 supine     0.07 – 0.13   0.07 – 0.40 (a tilted lying body is lifted at one end)
 prone      0.07 – 0.14   0.07 – 0.40
+half_kn.   0.50 – 0.62   0.45 – 0.70 (beyond the paper)
 =========  ============  ===================================================
 """
 
@@ -26,9 +27,11 @@ from hybrid_recovery.envs.initial_states import POSES, robot_geoms
 
 NUM_ENVS = 16
 POOL_COM = {"standing": (0.88, 0.95), "squatting": (0.48, 0.62), "kneeling": (0.30, 0.60),
-            "sitting": (0.15, 0.30), "supine": (0.07, 0.13), "prone": (0.07, 0.14)}
+            "sitting": (0.15, 0.30), "supine": (0.07, 0.13), "prone": (0.07, 0.14),
+            "half_kneeling": (0.50, 0.62)}
 START_COM = {"standing": (0.85, 1.00), "squatting": (0.45, 0.70), "kneeling": (0.28, 0.68),
-             "sitting": (0.15, 0.40), "supine": (0.07, 0.40), "prone": (0.07, 0.40)}
+             "sitting": (0.15, 0.40), "supine": (0.07, 0.40), "prone": (0.07, 0.40),
+             "half_kneeling": (0.45, 0.70)}
 SETTLED_PENETRATION = 0.010
 """Deepest ground penetration of a settled state [m] (soft contact under the robot's
 weight; measured ≤ 8.2 mm standing, which settles only 0.2 s, median ≤ 2.4 mm)."""
@@ -101,3 +104,15 @@ def test_start_poses_are_different_after_the_noise(env):
                      1 - 2 * (env.qpos[:, 5] ** 2 + env.qpos[:, 6] ** 2))
     assert np.ptp(yaw) > 1.0  # random heading
     np.testing.assert_allclose(np.linalg.norm(env.qpos[:, 3:7], axis=1), 1.0, atol=1e-12)
+
+
+def test_the_half_kneel_pool_has_either_foot_in_front(env):
+    """Half of the half-kneel pool is the mirror image: left foot forward, then right."""
+    qpos, _ = env.pool["half_kneeling"]
+    hip_pitch = qpos[:, env.qadr[[1, 7]]]  # left, right
+    front_left = hip_pitch[:, 0] < hip_pitch[:, 1] - 1.0
+    np.testing.assert_array_equal(front_left, np.arange(len(qpos)) < len(qpos) // 2)
+
+
+def test_the_half_kneel_is_off_by_default():
+    assert default_config().pose_weights["half_kneeling"] == 0.0

@@ -160,11 +160,16 @@ def test_unknown_advance_on_is_refused():
         RecoveryEnv(cfg)
 
 
-def test_unknown_advance_poses_are_refused():
+@pytest.mark.parametrize("key", ["curriculum.advance_poses", "curriculum.stage1_poses",
+                                 "pose_weights"])
+def test_unknown_poses_are_refused(key):
     cfg = default_config()
     cfg.num_envs, cfg.num_threads = 2, 1
-    cfg.curriculum.advance_poses = ("standing", "crawling")
-    with pytest.raises(ValueError, match=r"advance_poses has unknown poses \['crawling'\]"):
+    if key == "pose_weights":
+        cfg.pose_weights = {"standing": 1.0, "crawling": 1.0}
+    else:
+        setattr(cfg.curriculum, key.split(".")[1], ("standing", "crawling"))
+    with pytest.raises(ValueError, match=rf"{key} has unknown poses \['crawling'\]"):
         RecoveryEnv(cfg)
 
 

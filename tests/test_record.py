@@ -8,6 +8,7 @@ import numpy as np
 from torch.utils.tensorboard import SummaryWriter
 
 from hybrid_recovery.evaluation.ablation import ablation_table, run_metrics
+from hybrid_recovery.training import record as record_module
 from hybrid_recovery.training.record import FINAL_WINDOW, plot_curves, read_scalars, training_record
 
 
@@ -52,6 +53,20 @@ def test_record_figures_up_to_the_checkpoint(tmp_path):
     assert np.isclose(supine, np.mean([0.5] * 5 + [1.0] * 5))  # odd iterations 51..69
     assert record["curriculum"] == {"stage": 1, "level": 0.0}
     assert plot_curves(tmp_path, tmp_path / "curves.png").stat().st_size > 10_000
+
+
+def test_curves_can_stop_at_the_exported_checkpoint(tmp_path, monkeypatch):
+    _fake_run(tmp_path)
+    drawn = []
+    real_draw = record_module._draw
+    monkeypatch.setattr(record_module, "_draw",
+                        lambda ax, scalar, *a, **k: (drawn.append(scalar[0].max()),
+                                                     real_draw(ax, scalar, *a, **k)))
+    plot_curves(tmp_path, tmp_path / "all.png")
+    assert max(drawn) == 79
+    drawn.clear()
+    plot_curves(tmp_path, tmp_path / "upto.png", upto=69)
+    assert drawn and max(drawn) == 69
 
 
 def test_ablation_metrics_and_curves_compare_runs(tmp_path):

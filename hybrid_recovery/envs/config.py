@@ -210,8 +210,10 @@ class EnvConfig:
     """Per-episode actuation delay [s], a multiple of physics_dt, held within the episode."""
     pose_weights: dict[str, float] = field(default_factory=lambda: {
         "standing": 1.0, "squatting": 1.0, "kneeling": 1.0, "sitting": 1.0,
-        "supine": 1.0, "prone": 0.5})
-    """Sampling weights of the initial poses."""
+        "supine": 1.0, "prone": 0.5, "half_kneeling": 0.0})
+    """Sampling weights of the initial poses. ``half_kneeling`` (beyond the paper, 0 by
+    default) is a stepping stone to rising from kneeling at 1× torque, where the knee's
+    range (≤ 2.19 rad) keeps the feet from getting under the body."""
     privileged_critic: bool = True
     """Ablation switch: False gives the critic the actor's observation only."""
     torso_force_limit: float = 10000.0

@@ -17,7 +17,9 @@ from mujoco import batch as mjbatch
 
 from hybrid_recovery.robot import constants
 
-POSES = ("standing", "squatting", "kneeling", "sitting", "supine", "prone")
+POSES = ("standing", "squatting", "kneeling", "sitting", "supine", "prone", "half_kneeling")
+"""The paper's six start poses, then the half-kneel, a stepping stone beyond the paper
+(weight 0 by default)."""
 
 
 @dataclass(frozen=True)
@@ -28,6 +30,8 @@ class Pose:
     joints: np.ndarray
     pitch: float
     settle_time: float = 1.5
+    mirrored: bool = False
+    """Half of the pool is the left–right mirror image (for asymmetric poses)."""
 
 
 def _joints(hip_pitch: float, knee: float, ankle: float, shoulder: float = 0.2,
@@ -49,6 +53,11 @@ POSE_LIBRARY: dict[str, Pose] = {
     # lying on the back / the front, limbs at rest
     "supine": Pose(_joints(-0.1, 0.2, 0.0, shoulder=0.0, elbow=0.3), -np.pi / 2),
     "prone": Pose(_joints(-0.1, 0.2, 0.0, shoulder=0.0, elbow=0.3), np.pi / 2),
+    # one knee down (shin on the ground, foot extended), the other foot flat in front;
+    # settled until the knee lands (0.4 s): held longer under PD it tips over backwards
+    "half_kneeling": Pose(np.concatenate([_joints(-1.5, 1.6, -0.1)[:6],
+                                          _joints(-0.1, 1.6, 0.4)[6:]]), 0.0,
+                          settle_time=0.4, mirrored=True),
 }
 
 
@@ -112,6 +121,10 @@ def settle_pool(model: mujoco.MjModel, per_pose: int, rng: np.random.Generator,
     qpos, qvel, ctrl = sims.bind("qpos"), sims.bind("qvel"), sims.bind("ctrl")
     qadr = model.jnt_qposadr[1:1 + constants.NUM_JOINTS]
     targets = np.repeat(np.stack([POSE_LIBRARY[p].joints for p in names]), per_pose, 0)
+    for k, name in enumerate(names):
+        if POSE_LIBRARY[name].mirrored:
+            rows = slice(k * per_pose + per_pose // 2, (k + 1) * per_pose)
+            targets[rows] = constants.MIRROR_SIGN * targets[rows][:, constants.MIRROR_JOINT_INDEX]
     targets = targets + rng.uniform(-joint_noise, joint_noise, targets.shape)
     lo, hi = model.jnt_range[1:1 + constants.NUM_JOINTS].T
     targets = np.clip(targets, lo, hi)

@@ -105,10 +105,13 @@ class RecoveryEnv(VecEnv):
         if cfg.curriculum.advance_on not in ("stood_up", "success"):
             raise ValueError(f"curriculum.advance_on must be 'stood_up' or 'success', got "
                              f"'{cfg.curriculum.advance_on}'")
-        unknown = set(cfg.curriculum.advance_poses or ()) - set(POSES)
-        if unknown:
-            raise ValueError(f"curriculum.advance_poses has unknown poses {sorted(unknown)}; "
-                             f"known: {list(POSES)}")
+        for key, named in (("curriculum.advance_poses", cfg.curriculum.advance_poses or ()),
+                           ("curriculum.stage1_poses", cfg.curriculum.stage1_poses),
+                           ("pose_weights", cfg.pose_weights)):
+            unknown = set(named) - set(POSES)
+            if unknown:
+                raise ValueError(f"{key} has unknown poses {sorted(unknown)}; "
+                                 f"known: {list(POSES)}")
         self.episode_sums: dict[str, np.ndarray] = {}
         self.nan_resets = 0
         self._state: dict[str, np.ndarray] = {}

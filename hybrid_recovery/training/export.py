@@ -81,5 +81,5 @@ def export_policy(run_dir: str | Path, out_dir: str | Path | None = None,
     (out / "policy.json").write_text(json.dumps(desc, indent=2))
     record = training_record(run_dir, data)
     (out / "training_record.json").write_text(json.dumps(record, indent=2, default=str))
-    plot_curves(run_dir, out / "curves.png")
+    plot_curves(run_dir, out / "curves.png", upto=int(data["iter"]))
     return out

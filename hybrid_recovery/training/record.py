@@ -112,13 +112,14 @@ def _draw(ax, scalar: tuple[np.ndarray, np.ndarray], per_iteration: int, **style
 
 
 def plot_curves(runs: str | Path | Mapping[str, str | Path], out: str | Path,
-                title: str | None = None) -> Path:
+                title: str | None = None, upto: int | None = None) -> Path:
     """Writes learning curves (:data:`CURVES`) against env steps as a PNG.
 
     Args:
         runs: one run directory, or label → run directory to compare runs on one figure.
         out: the PNG path.
         title: figure title (default: the runs and their sizes).
+        upto: draw iterations ≤ upto only (an exported checkpoint's curves).
     """
     import matplotlib
 
@@ -137,6 +138,9 @@ def plot_curves(runs: str | Path | Mapping[str, str | Path], out: str | Path,
     sizes = []
     for index, (name, run_dir) in enumerate(runs.items()):
         scalars = read_scalars(run_dir)
+        if upto is not None:
+            scalars = {tag: (steps[steps <= upto], values[steps <= upto])
+                       for tag, (steps, values) in scalars.items()}
         meta = json.loads((Path(run_dir) / "config.json").read_text())
         config = meta["train_config"]
         per_iteration = config["num_envs"] * config["num_steps_per_env"]
@@ -152,6 +156,8 @@ def plot_curves(runs: str | Path | Mapping[str, str | Path], out: str | Path,
                 _draw(axes.flat[-1], scalars[tag], per_iteration, label=tag.split("/")[1],
                       color=f"C{k}")
         for number, amendment in enumerate(meta.get("amendments", []), 1):
+            if upto is not None and amendment["iteration"] > upto:
+                continue
             x = amendment["iteration"] * per_iteration / 1e6
             for ax in axes.flat:
                 ax.axvline(x, color=f"C{index}", ls=":", lw=1)
