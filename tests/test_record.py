@@ -81,3 +81,25 @@ def test_ablation_metrics_and_curves_compare_runs(tmp_path):
     assert "| stand-up success | 0.755 | 0.755 |" in table
     out = plot_curves({"full": full, "reduced": reduced}, tmp_path / "both.png")
     assert out.stat().st_size > 10_000
+
+
+def test_the_ablation_table_compares_runs_at_the_same_budget(tmp_path):
+    """A run with twice the envs per iteration is cut at half the iterations; the longer
+    run is cut at the shorter run's env steps."""
+    long, short = tmp_path / "long", tmp_path / "short"
+    long.mkdir(), short.mkdir()
+    _fake_run(long)  # 80 iterations × 8 envs × 24 steps
+    writer = SummaryWriter(str(short))
+    for it in range(35):  # 35 iterations × 16 envs × 24 steps = 70 iterations of `long`
+        writer.add_scalar("Train/mean_reward", -1.0, it)
+        writer.add_scalar("termination/stuck_low", 1.0, it)
+    writer.close()
+    (short / "config.json").write_text(json.dumps(
+        {"train_config": {"num_envs": 16, "num_steps_per_env": 24}}))
+    table = ablation_table({"long": long, "short": short})
+    # long: iterations 0..69, the last 10 % = 63..69
+    assert f"| stand-up success | {np.mean(np.arange(63, 70) / 100.0):.3f} | – |" in table
+    assert "| env steps [millions] | 0.013 | 0.013 |" in table
+    assert "| stuck-low rate | – | 1.000 |" in table
+    whole = ablation_table({"long": long, "short": short}, same_budget=False)
+    assert f"| stand-up success | {np.mean(np.arange(72, 80) / 100.0):.3f} | – |" in whole

@@ -22,7 +22,7 @@ def _report(args: argparse.Namespace) -> int:
         results[label] = [r for r in rows if r.get("key") != "__header__"]
     runs = dict(item.split("=", 1) if "=" in item else (Path(item).name, item)
                 for item in args.runs)
-    table = ablation_table(runs) if runs else None
+    table = ablation_table(runs, same_budget=not args.whole_runs) if runs else None
     print(write_report(results, args.out, args.title, ablation=table))
     if runs:
         print(plot_curves(runs, Path(args.out) / "training_curves.png"))
@@ -33,6 +33,9 @@ def _configure(p: argparse.ArgumentParser) -> None:
     p.add_argument("results", nargs="*", help="results.jsonl files from eval/compare")
     p.add_argument("--runs", nargs="*", default=[], metavar="[LABEL=]RUN_DIR",
                    help="training runs for the ablation table and training_curves.png")
+    p.add_argument("--whole-runs", action="store_true",
+                   help="ablation table over each run's whole log (default: every run cut "
+                        "at the env steps of the shortest, the same budget)")
     p.add_argument("--out", default="results/report")
     p.add_argument("--title", default="hybrid_recovery evaluation")
 
