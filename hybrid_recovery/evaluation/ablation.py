@@ -68,7 +68,8 @@ def ablation_table(runs: dict[str, str | Path], same_budget: bool = True) -> str
         upto = {label: budget // per_iteration[label] - 1 for label in runs}
     metrics = {label: run_metrics(path, upto=upto[label]) for label, path in runs.items()}
     for label, m in metrics.items():
-        end = last[label] if upto[label] is None else upto[label]
+        cut = upto[label]
+        end = last[label] if cut is None else cut
         m["env_steps_m"] = (end + 1) * per_iteration[label] / 1e6
     lines = ["| metric | " + " | ".join(metrics) + " |", "|---" * (len(metrics) + 1) + "|"]
     rows = ABLATION_METRICS + (("iterations", "iterations logged"),
