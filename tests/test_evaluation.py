@@ -11,7 +11,7 @@ from hybrid_recovery.evaluation import run_protocol
 from hybrid_recovery.evaluation.runner import completed_keys, load_results
 from hybrid_recovery.evaluation.scenario import Scenario, pushes_protocol, sweep_protocol
 from hybrid_recovery.evaluation.strategy import CONTACT_BODIES, label_strategy
-from hybrid_recovery.evaluation.success import recovery_time, wilson_interval
+from hybrid_recovery.evaluation.success import recovery_time, stuck_low, wilson_interval
 
 DT = 0.02
 
@@ -57,6 +57,17 @@ def test_recovery_time_counts_from_start_and_after_the_push():
     vel = np.zeros(400)
     assert recovery_time(t, h, vel, _upright(400)) == pytest.approx(0.0)
     assert recovery_time(t, h, vel, _upright(400), start=1.1) == pytest.approx(4.0 - 1.1)
+
+
+def test_stuck_low_matches_the_training_termination():
+    lying = np.full(150, 0.3)  # 3 s without a rise
+    assert stuck_low(lying[:100], DT) is False  # 2 s: the window is not yet full
+    assert stuck_low(lying, DT) is True
+    rising = 0.3 + 0.02 * np.arange(150) * DT  # 4 cm per 2 s
+    assert stuck_low(rising, DT) is False
+    wiggling = 0.3 + 0.03 * np.sin(np.arange(300) * DT * 2 * np.pi * 3)  # troughs repeat
+    assert stuck_low(wiggling, DT) is True
+    assert stuck_low(np.full(300, 0.92), DT) is False  # standing is never stuck
 
 
 def test_wilson_interval_known_values():
@@ -131,6 +142,7 @@ def test_tiny_sweep_runs_resumes_and_reports(tmp_path):
     for panel in ("A_no_push", "BC_force", "D_time", "E_direction", "F_height"):
         assert panel in text and any(tmp_path.joinpath("report").glob(f"*{panel}.png"))
     assert len(load_results(results)) == 17
+    assert all(isinstance(r["stuck_low"], bool) for r in rows) and "stuck low" in text
 
 
 def test_capture_point_figure_from_a_recorded_push(tmp_path):

@@ -53,6 +53,13 @@ def test_record_figures_up_to_the_checkpoint(tmp_path):
     assert np.isclose(supine, np.mean([0.5] * 5 + [1.0] * 5))  # odd iterations 51..69
     assert record["curriculum"] == {"stage": 1, "level": 0.0}
     assert plot_curves(tmp_path, tmp_path / "curves.png").stat().st_size > 10_000
+    # a checkpoint that kept its own compute time (across lost logs) is believed instead
+    segments = [{"iteration": 0, "hardware": {"cpu_count": 2}},
+                {"iteration": 40, "hardware": {"cpu_count": 16}}]
+    checkpoint["infos"].update(compute_time_s=1234.5, segments=segments)
+    record = training_record(tmp_path, checkpoint)
+    assert record["compute_time_s"] == 1234.5 and record["segments"] == segments
+    assert record["hardware"] == {"cpu_count": 16}
 
 
 def test_curves_can_stop_at_the_exported_checkpoint(tmp_path, monkeypatch):

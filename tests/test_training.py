@@ -191,6 +191,17 @@ def test_resume_uses_the_runs_saved_settings(tmp_path):
     assert meta["train_config"]["init_std"] == 0.5 and meta["train_config"]["iterations"] == 3
 
 
+def test_compute_time_and_machines_carry_across_resumes(tmp_path):
+    run = tmp_path / "run"
+    train(run, _cfg())
+    first = load_checkpoint(run / "latest.pt")["infos"]
+    train(run, _cfg(iterations=4), resume=True)
+    infos = load_checkpoint(run / "latest.pt")["infos"]
+    assert 0 < first["compute_time_s"] < infos["compute_time_s"]
+    assert [s["iteration"] for s in infos["segments"]] == [0, 2]
+    assert infos["segments"][1]["hardware"]["cpu_count"] >= 1
+
+
 def test_amendments_change_a_resumed_run_and_are_recorded(tmp_path):
     run = tmp_path / "run"
     train(run, _cfg())
@@ -217,3 +228,34 @@ def test_amendments_change_a_resumed_run_and_are_recorded(tmp_path):
                                    "changes": changes}]
     assert load_checkpoint(run / "latest.pt")["infos"]["meta"]["amendments"] == \
         meta["amendments"]
+
+
+def test_a_run_follows_a_reference_runs_amendments(tmp_path):
+    reference = tmp_path / "reference.json"
+    reference.write_text(json.dumps({"amendments": [
+        {"iteration": 2, "changes": {"ppo.entropy_coef": 0.001}},
+        {"iteration": 3, "changes": {"rewards.w_action_rate": 0.05}}]}))
+    run = tmp_path / "run"
+    runner = train(run, _cfg(iterations=4), follow=reference)
+    assert runner.current_learning_iteration == 3
+    meta = json.loads((run / "config.json").read_text())
+    assert meta["follow"] == str(reference)
+    assert [(a["iteration"], a["from"]) for a in meta["amendments"]] == \
+        [(2, str(reference)), (3, str(reference))]
+    assert runner.alg.entropy_coef == 0.001 and runner.env.cfg.rewards.w_action_rate == 0.05
+    # a resume keeps following: nothing is replayed twice
+    resumed = train(run, _cfg(iterations=5), resume=True)
+    assert resumed.current_learning_iteration == 4
+    assert len(json.loads((run / "config.json").read_text())["amendments"]) == 2
+    with pytest.raises(FileNotFoundError, match="no reference run config"):
+        train(tmp_path / "other", _cfg(), follow=tmp_path / "missing")
+
+
+def test_an_amended_assist_fraction_outranks_the_checkpoint(tmp_path):
+    run = tmp_path / "run"
+    train(run, _cfg(env_overrides={**FAST, "curriculum.advance_success": 1.1,
+                                   "assist.fraction": 0.5}))
+    assert load_checkpoint(run / "latest.pt")["infos"]["assist"]["fraction"] == 0.5
+    resumed = train(run, _cfg(iterations=3), resume=True, amend={"assist.fraction": 0.0})
+    assert not resumed.env.assist.active
+    assert load_checkpoint(run / "latest.pt")["infos"]["assist"]["fraction"] == 0.0

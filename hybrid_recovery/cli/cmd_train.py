@@ -17,7 +17,8 @@ def _train(args: argparse.Namespace) -> int:
                       env_overrides=parse_overrides(args.set))
     cfg.ppo.symmetry = args.symmetry
     run_dir = Path(args.run_dir or f"runs/{args.variant}")
-    train(run_dir, cfg, resume=args.resume, amend=parse_overrides(args.amend))
+    train(run_dir, cfg, resume=args.resume, amend=parse_overrides(args.amend),
+          follow=args.follow)
     return 0
 
 
@@ -42,6 +43,9 @@ def _configure_train(p: argparse.ArgumentParser) -> None:
                    help="with --resume: change the run's saved settings from now on, e.g. "
                         "ppo.entropy_coef=0.001 train.max_std=0.4 rewards.w_cp=0 (kept in "
                         "config.json)")
+    p.add_argument("--follow", default=None, metavar="RUN",
+                   help="replay the amendments of another run (its directory or config.json) "
+                        "at the same iterations, e.g. an ablation of a run with a history")
     p.add_argument("--max-std", type=float, default=None,
                    help="upper bound of the action noise std (default: unbounded)")
 

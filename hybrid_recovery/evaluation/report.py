@@ -36,15 +36,17 @@ def _group(rows: list[dict], *keys: str) -> dict[tuple, list[dict]]:
 def summary_table(rows: list[dict], by: str = "pose") -> str:
     """Markdown table: success rate with 95 % CI and recovery times, per ``by``."""
     lines = [f"| {by} | trials | success | 95 % CI | mean t_rec [s] | median t_rec [s] | "
-             "falls |", "|---|---|---|---|---|---|---|"]
+             "falls | stuck low |", "|---|---|---|---|---|---|---|---|"]
     for (value,), group in _group(rows, by).items():
         rate, lo, hi, n = _rate(group)
         times = [r["recovery_time"] for r in group if r["success"]]
         mean = f"{np.mean(times):.2f}" if times else "–"
         median = f"{np.median(times):.2f}" if times else "–"
         falls = sum(r["fell"] for r in group)
+        stuck = [r["stuck_low"] for r in group if "stuck_low" in r]  # older results lack it
+        stuck_rate = f"{np.mean(stuck):.1%}" if stuck else "–"
         lines.append(f"| {value} | {n} | {rate:.1%} | [{lo:.1%}, {hi:.1%}] | {mean} | {median} "
-                     f"| {falls} |")
+                     f"| {falls} | {stuck_rate} |")
     return "\n".join(lines)
 
 

@@ -9,7 +9,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from hybrid_recovery.envs.terminations import SUCCESS_TIME, upright
+from hybrid_recovery.envs.config import EnvConfig
+from hybrid_recovery.envs.terminations import SUCCESS_TIME, StuckLow, upright
 
 
 def recovery_time(time: np.ndarray, height: np.ndarray, height_vel: np.ndarray,
@@ -42,6 +43,28 @@ def recovery_time(time: np.ndarray, height: np.ndarray, height_vel: np.ndarray,
         if run >= need:
             return max(0.0, float(time[k - run + 1] - start))
     return None
+
+
+def stuck_low(height: np.ndarray, dt: float) -> bool:
+    """Whether the training env's stuck-low termination (SPEC §5, :class:`StuckLow` with
+    the default :class:`EnvConfig`) would have ended this trajectory: below the upright
+    height, the CoM rose less than ``stuck_rise`` above its lowest point of the last
+    ``stuck_time`` seconds. The paper's ablation reports its rate (full 0.067, reduced 1.0).
+
+    Args:
+        height: CoM height h_c, shape (T,) [m], sampled every ``dt`` [s].
+    """
+    cfg = EnvConfig()
+    detector = StuckLow(1, cfg.stuck_time, cfg.stuck_rise, dt)
+    h = np.asarray(height, dtype=float)
+    if not len(h):
+        return False
+    detector.reset(np.array([0]), h[:1])
+    for value in h[1:]:
+        sample = np.array([value])
+        if detector.update(sample, dt, sample < cfg.upright_height)[0]:
+            return True
+    return False
 
 
 def wilson_interval(successes: int, trials: int, z: float = 1.96) -> tuple[float, float]:

@@ -15,7 +15,7 @@ from hybrid_recovery.envs.initial_states import perturb_start, seat_single, sett
 from hybrid_recovery.evaluation.contact import apply_contact_preset
 from hybrid_recovery.evaluation.scenario import Scenario, check_pose
 from hybrid_recovery.evaluation.strategy import CONTACT_BODIES, label_strategy
-from hybrid_recovery.evaluation.success import recovery_time
+from hybrid_recovery.evaluation.success import recovery_time, stuck_low
 from hybrid_recovery.observation import projected_gravity
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.mjcf import load_mjmodel
@@ -81,7 +81,8 @@ def run_trial(controller, scenario: Scenario, model_path: str | Path | None = No
         A flat dict: the scenario, ``success`` (the paper's criterion, after the push for a
         pushed trial), ``recovery_time`` [s] from the start, or from the end of the push
         (None on failure), ``standing_at_end``,
-        ``fell`` (CoM below 0.5 m at some point), ``peak_torque`` [N·m], ``time_low`` (time
+        ``fell`` (CoM below 0.5 m at some point), ``stuck_low`` (the training env's
+        stuck-low termination would have ended the trial), ``peak_torque`` [N·m], ``time_low`` (time
         with the CoM below 0.85 m) [s], ``strategy``, ``not_applicable`` (the controller
         declined the situation), and with ``record`` a ``trace`` of arrays at 50 Hz.
     """
@@ -141,6 +142,7 @@ def run_trial(controller, scenario: Scenario, model_path: str | Path | None = No
         "success": t_rec is not None, "recovery_time": t_rec,
         "standing_at_end": bool(com[-1, 2] > 0.85),
         "fell": bool((com[:, 2] < 0.5).any()),
+        "stuck_low": stuck_low(com[:, 2], RECORD_DT),
         "peak_torque": peak_torque,
         "time_low": float((com[:, 2] < 0.85).sum() * RECORD_DT),
         "strategy": label_strategy(arrays, scenario.push_time if scenario.force > 0 else None),

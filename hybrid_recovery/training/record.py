@@ -81,7 +81,10 @@ def training_record(run_dir: str | Path, checkpoint: dict) -> dict:
         steps, values = scalars.get(tag, (np.zeros(0), np.zeros(0)))
         return values[steps <= iteration]
 
-    compute = float(upto("Perf/collection_time").sum() + upto("Perf/learning_time").sum())
+    compute = checkpoint["infos"].get("compute_time_s")  # wall clock, kept across resumes
+    if compute is None:  # older checkpoints: the logged iterations' times
+        compute = float(upto("Perf/collection_time").sum() + upto("Perf/learning_time").sum())
+    segments = checkpoint["infos"].get("segments") or [{"iteration": 0, "hardware": hardware()}]
     by_pose = sorted(t for t in scalars if t.startswith(("pose_success/", "pose_stood_up/")))
     final = {tag: float(np.mean(upto(tag)[-FINAL_WINDOW:]))
              for tag in [t for t, _ in CURVES] + by_pose if len(upto(tag))}
@@ -89,7 +92,8 @@ def training_record(run_dir: str | Path, checkpoint: dict) -> dict:
         "variant": meta["variant"], "git_commit": meta["git_commit"],
         "iteration": iteration, "env_steps": checkpoint["infos"].get("env_steps"),
         "compute_time_s": round(compute, 2),
-        "hardware": hardware(),
+        "hardware": segments[-1]["hardware"],
+        "segments": segments,
         "train_config": meta["train_config"],
         "env_config": meta.get("env_config"),
         "amendments": meta.get("amendments", []),

@@ -22,6 +22,7 @@ from hybrid_recovery.training.config import (
     runner_dict,
     train_config_from_dict,
 )
+from hybrid_recovery.training.record import hardware
 from hybrid_recovery.training.variants import variant_overrides
 
 
@@ -34,17 +35,24 @@ class RecoveryRunner(OnPolicyRunner):
                  meta: dict, keep: int = 3) -> None:
         super().__init__(env, train_cfg, log_dir=log_dir, device="cpu")
         self.meta, self.keep = meta, keep
-        self._t0, self._it0 = time.time(), 0
+        self.compute_s: float | None = 0.0  # None: a resumed run whose earlier time is unknown
+        self.segments = [{"iteration": 0, "hardware": hardware()}]
+        self._clock = time.time()
 
     def save(self, path: str, infos: dict | None = None) -> None:
         saved = self.alg.save()
         saved["iter"] = self.current_learning_iteration
         env_steps = (self.current_learning_iteration + 1) * self.cfg["num_steps_per_env"] \
             * self.env.num_envs
+        now = time.time()
+        if self.compute_s is not None:
+            self.compute_s += now - self._clock
+        self._clock = now
         saved["infos"] = {**(infos or {}), "meta": self.meta,
                           "curriculum": self.env.curriculum.state_dict(),
                           "assist": self.env.assist.state_dict(),
-                          "env_steps": env_steps}
+                          "env_steps": env_steps, "compute_time_s": self.compute_s,
+                          "segments": self.segments}
         atomic_save(saved, path)
         run = Path(path).parent
         atomic_save(saved, run / LATEST)
@@ -60,6 +68,10 @@ class RecoveryRunner(OnPolicyRunner):
         self.env.curriculum.load_state_dict(data["infos"]["curriculum"])
         if "assist" in data["infos"]:
             self.env.assist.load_state_dict(data["infos"]["assist"])
+        self.compute_s = data["infos"].get("compute_time_s")
+        self.segments = [*data["infos"].get("segments", []),
+                         {"iteration": self.current_learning_iteration, "hardware": hardware()}]
+        self._clock = time.time()
 
 
 def make_env_config(cfg: TrainConfig) -> EnvConfig:
@@ -102,8 +114,25 @@ def _resumed_config(run_dir: Path, cfg: TrainConfig) -> TrainConfig:
     return saved
 
 
+def reference_amendments(reference: str | Path) -> list[dict]:
+    """The amendments of a reference run (its directory or its ``config.json``).
+
+    Raises:
+        FileNotFoundError: no such run or file.
+    """
+    path = Path(reference)
+    path = path / "config.json" if path.is_dir() else path
+    if not path.is_file():
+        raise FileNotFoundError(f"no reference run config at {path}")
+    return list(json.loads(path.read_text()).get("amendments", []))
+
+
+def _replayed(amendments: list[dict], reference: str) -> int:
+    return sum(1 for a in amendments if a.get("from") == reference)
+
+
 def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
-          amend: dict | None = None) -> RecoveryRunner:
+          amend: dict | None = None, follow: str | Path | None = None) -> RecoveryRunner:
     """Trains (or resumes) a run in ``run_dir`` up to ``cfg.iterations`` iterations.
 
     The run directory holds ``config.json`` (resolved train and env configs, git commit,
@@ -114,6 +143,10 @@ def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
             EnvConfig keys, see :func:`amend_train_config`). Each amendment is kept in
             ``config.json`` and the checkpoints' metadata with the iteration it starts at,
             so a run's history stays readable.
+        follow: a reference run (directory or ``config.json``) whose amendments are
+            replayed here at the iterations where the reference made them, so that an
+            ablation keeps the reference's recipe; kept in ``config.json``, so a resume
+            goes on following it.
 
     Raises:
         FileNotFoundError: resuming a directory without ``latest.pt``.
@@ -126,15 +159,26 @@ def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
                          "as options instead")
     if resume and not latest.is_file():
         raise FileNotFoundError(f"cannot resume: no {LATEST} in {run_dir}")
-    amendments = []
+    amendments: list[dict] = []
+    saved_meta = json.loads((run_dir / "config.json").read_text()) \
+        if resume and (run_dir / "config.json").is_file() else {}
+    follow = str(follow) if follow is not None else saved_meta.get("follow")
+    replay = reference_amendments(follow) if follow else []
+    start = int(load_checkpoint(latest)["iter"]) + 1 if resume else 0
     if resume:
         cfg = _resumed_config(run_dir, cfg)
-        if (run_dir / "config.json").is_file():
-            amendments = json.loads((run_dir / "config.json").read_text()).get("amendments", [])
+        amendments = saved_meta.get("amendments", [])
+        due = [a for a in replay[_replayed(amendments, str(follow)):] if a["iteration"] <= start]
+        for a in due:  # the reference's amendments this run has reached
+            cfg = amend_train_config(cfg, a["changes"])
+            amendments.append({"iteration": start, "changes": dict(a["changes"]),
+                               "git_commit": _git_commit(), "from": follow})
+            print(f"[hybrid-recovery] replaying {follow}'s amendment of iteration "
+                  f"{a['iteration']}: {a['changes']}", flush=True)
         if amend:
             cfg = amend_train_config(cfg, amend)
-            amendments.append({"iteration": int(load_checkpoint(latest)["iter"]) + 1,
-                               "changes": dict(amend), "git_commit": _git_commit()})
+            amendments.append({"iteration": start, "changes": dict(amend),
+                               "git_commit": _git_commit()})
             print(f"[hybrid-recovery] amending the run's settings: {amend}", flush=True)
     run_dir.mkdir(parents=True, exist_ok=True)
     torch.manual_seed(cfg.seed)
@@ -142,15 +186,21 @@ def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
     env_cfg = make_env_config(cfg)
     env = RecoveryEnv(env_cfg)
     critic_dim = int(env.get_observations()["critic"].shape[1])
-    meta = {**policy_meta(cfg, env_cfg, critic_dim), "amendments": amendments}
+    meta = {**policy_meta(cfg, env_cfg, critic_dim), "amendments": amendments,
+            **({"follow": follow} if follow else {})}
     (run_dir / "config.json").write_text(json.dumps(meta, indent=2, default=str))
     runner = RecoveryRunner(env, runner_dict(cfg), str(run_dir), meta, cfg.keep_checkpoints)
     if resume:
         runner.load_run(latest)
+        if amend and "assist.fraction" in amend:  # the amendment outranks the saved state
+            env.assist.load_state_dict({"fraction": float(amend["assist.fraction"])})
         print(f"[hybrid-recovery] resumed {run_dir} at iteration "
               f"{runner.current_learning_iteration}, curriculum stage "
               f"{env.curriculum.stage} level {env.curriculum.level:.2f}", flush=True)
-    remaining = cfg.iterations - runner.current_learning_iteration
-    if remaining > 0:
-        runner.learn(remaining)
+    pending = [a["iteration"] for a in replay[_replayed(amendments, str(follow)):]]
+    stop = min([cfg.iterations, *pending])
+    if stop > runner.current_learning_iteration:
+        runner.learn(stop - runner.current_learning_iteration)
+    if stop < cfg.iterations:  # at the reference's next amendment: resume with it
+        return train(run_dir, cfg, resume=True)
     return runner
