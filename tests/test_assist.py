@@ -54,3 +54,56 @@ def test_env_applies_the_force_to_the_torso(fraction):
     assert upright.any()
     env.step(torch.zeros(4, env.num_actions))
     np.testing.assert_allclose(env.xfrc[:, env.torso, 2][upright], fraction * weight[upright])
+
+
+def test_assistance_by_start_pose():
+    a = Assist(AssistConfig(fraction=0.5, poses=["supine", "sitting"]), WINDOW, 0.6)
+    names = np.array(["standing", "supine", "sitting", "kneeling"])
+    np.testing.assert_array_equal(a.assisted(names), [False, True, True, False])
+    everyone = Assist(AssistConfig(fraction=0.5), WINDOW, 0.6)
+    assert everyone.assisted(names).all()
+    off = Assist(AssistConfig(fraction=0.0, poses=["supine"]), WINDOW, 0.6)
+    assert not off.assisted(names).any()
+
+
+def _pose_env(**assist):
+    cfg = default_config()
+    cfg.num_envs, cfg.num_threads = 8, 1
+    cfg.pose_weights = {p: float(p in ("standing", "supine")) for p in cfg.pose_weights}
+    cfg.curriculum.window = WINDOW
+    cfg.curriculum.stage1_poses = ["standing", "supine"]
+    for key, value in assist.items():
+        setattr(cfg.assist, key, value)
+    return RecoveryEnv(cfg)
+
+
+def test_a_pull_lifts_only_the_assisted_poses_in_any_attitude():
+    env = _pose_env(fraction=0.5, max_tilt=np.pi, poses=["supine"])
+    env.step(torch.zeros(8, env.num_actions))
+    supine = np.asarray(env._pose_names)[env.start_pose] == "supine"
+    assert supine.any() and (~supine).any()
+    weight = env.randomizer.mass[:, 1:].sum(1) * GRAVITY
+    lying = -env._state["gravity_b"][:, 2] < np.cos(np.deg2rad(60))
+    assert (supine & lying).any()  # lying on its back, out of reach of a 60° gate
+    env.step(torch.zeros(8, env.num_actions))
+    np.testing.assert_allclose(env.xfrc[supine, env.torso, 2], 0.5 * weight[supine])
+    pushes = env.pushes.force(env.upright_time, env.rng, env.curriculum.difficulty)
+    assert np.allclose(env.xfrc[~supine, env.torso, 2], pushes[~supine, 2])
+
+
+def test_assisted_episodes_anneal_the_pull_and_the_others_feed_the_curriculum():
+    env = _pose_env(fraction=0.5, poses=["supine"])
+    ids = np.arange(8)
+    env.start_pose[:] = np.where(ids % 2, list(env._pose_names).index("supine"),
+                                 list(env._pose_names).index("standing"))
+    env.stood_up[:] = ids % 2 == 0  # the standing ones stood, the supine ones did not
+    env._episode_log(ids, {name: np.zeros(8, bool) for name in ("timeout", "torso_contact",
+                                                                "stuck_low", "nan")})
+    assert list(env.assist._outcomes) == [False] * 4
+    assert list(env.curriculum._outcomes) == [True] * 4
+    everyone = _pose_env(fraction=0.5)  # no poses: every episode anneals, the curriculum waits
+    everyone.stood_up[:] = True
+    everyone._episode_log(ids, {name: np.zeros(8, bool) for name in ("timeout",
+                                                                     "torso_contact",
+                                                                     "stuck_low", "nan")})
+    assert len(everyone.curriculum._outcomes) == 0 and everyone.assist.fraction < 0.5

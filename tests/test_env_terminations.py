@@ -161,14 +161,15 @@ def test_unknown_advance_on_is_refused():
 
 
 @pytest.mark.parametrize("key", ["curriculum.advance_poses", "curriculum.stage1_poses",
-                                 "pose_weights"])
+                                 "pose_weights", "assist.poses"])
 def test_unknown_poses_are_refused(key):
     cfg = default_config()
     cfg.num_envs, cfg.num_threads = 2, 1
     if key == "pose_weights":
         cfg.pose_weights = {"standing": 1.0, "crawling": 1.0}
     else:
-        setattr(cfg.curriculum, key.split(".")[1], ("standing", "crawling"))
+        group, name = key.split(".")
+        setattr(getattr(cfg, group), name, ["standing", "crawling"])
     with pytest.raises(ValueError, match=rf"{key} has unknown poses \['crawling'\]"):
         RecoveryEnv(cfg)
 

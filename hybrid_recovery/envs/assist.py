@@ -36,6 +36,14 @@ class Assist:
         upright = -gravity_b[:, 2] > np.cos(self.cfg.max_tilt)
         return self.fraction * mass * g * upright
 
+    def assisted(self, start_poses: np.ndarray) -> np.ndarray:
+        """Which episodes, by start pose name (N,), the force acts on, shape (N,) bool."""
+        if not self.active:
+            return np.zeros(len(start_poses), dtype=bool)
+        if self.cfg.poses is None:
+            return np.ones(len(start_poses), dtype=bool)
+        return np.isin(start_poses, self.cfg.poses)
+
     def record(self, success: np.ndarray) -> bool:
         """Adds finished episodes' outcomes; decays the force when earned."""
         if not self.active:

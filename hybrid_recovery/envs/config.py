@@ -187,7 +187,13 @@ class AssistConfig:
     decay: float = 0.7
     floor: float = 0.05
     max_tilt: float = 1.05
-    """Torso tilt from vertical up to which the force acts [rad] (60°)."""
+    """Torso tilt from vertical up to which the force acts [rad] (60°); π: any attitude,
+    a pull that also lifts a robot off its back (the pulling-force curriculum of
+    humanoid stand-up work)."""
+    poses: list[str] | None = None
+    """Start poses whose episodes get the force and whose outcomes (stood up or not)
+    anneal it, while the other episodes go on counting for the curriculum; None: every
+    episode is assisted and the curriculum waits for the assistance to end."""
 
 
 @dataclass

@@ -102,12 +102,14 @@ class RecoveryEnv(VecEnv):
         self.stood_up = np.zeros(n, dtype=bool)
         self.start_pose = np.zeros(n, dtype=int)
         """Index into ``POSES`` of each env's episode start."""
+        self._pose_names = np.asarray(POSES)
         if cfg.curriculum.advance_on not in ("stood_up", "success"):
             raise ValueError(f"curriculum.advance_on must be 'stood_up' or 'success', got "
                              f"'{cfg.curriculum.advance_on}'")
         for key, named in (("curriculum.advance_poses", cfg.curriculum.advance_poses or ()),
                            ("curriculum.stage1_poses", cfg.curriculum.stage1_poses),
-                           ("pose_weights", cfg.pose_weights)):
+                           ("pose_weights", cfg.pose_weights),
+                           ("assist.poses", cfg.assist.poses or ())):
             unknown = set(named) - set(POSES)
             if unknown:
                 raise ValueError(f"{key} has unknown poses {sorted(unknown)}; "
@@ -138,8 +140,9 @@ class RecoveryEnv(VecEnv):
                                                        self.curriculum.difficulty)
         if self.assist.active:
             mass = self.randomizer.mass[:, 1:].sum(1)
-            self.xfrc[:, self.torso, 2] += self.assist.force_z(mass, self._state["gravity_b"],
-                                                               GRAVITY)
+            helped = self.assist.assisted(self._pose_names[self.start_pose])
+            self.xfrc[:, self.torso, 2] += helped * self.assist.force_z(
+                mass, self._state["gravity_b"], GRAVITY)
         failed = self._physics()
         self.episode_length_buf += 1
         self._read_state()
@@ -353,13 +356,15 @@ class RecoveryEnv(VecEnv):
                     self.stood_up[mine].astype(np.float32))
         counted = self.stood_up if self.cfg.curriculum.advance_on == "stood_up" else self.succeeded
         gated = self.cfg.curriculum.advance_poses
-        scored = ids if gated is None else ids[np.isin(np.asarray(POSES)[self.start_pose[ids]],
-                                                        gated)]
+        names = self._pose_names[self.start_pose[ids]]
+        scored = np.ones(len(ids), dtype=bool) if gated is None else np.isin(names, gated)
         log["episode/final_com_height"] = torch.from_numpy(self._state["height"][ids])
-        if self.assist.active:  # the curriculum counts unassisted episodes only
-            self.assist.record(counted[scored])
-        else:
-            self.curriculum.record(counted[scored])
+        if self.assist.active and self.cfg.assist.poses is None:  # the curriculum waits
+            self.assist.record(counted[ids[scored]])
+        else:  # assisted episodes anneal the assistance, the others count for the curriculum
+            helped = self.assist.assisted(names)
+            self.assist.record(counted[ids[helped]])
+            self.curriculum.record(counted[ids[scored & ~helped]])
         log["curriculum/assist_fraction"] = float(self.assist.fraction)
         log["curriculum/stage"] = float(self.curriculum.stage)
         log["curriculum/level"] = float(self.curriculum.level)
