@@ -28,6 +28,13 @@ def test_force_is_a_weight_fraction_gated_by_tilt():
     np.testing.assert_allclose(a.force_z(mass, gravity_b, 9.81), [343.35, 343.35, 0.0])
 
 
+def test_the_pull_stops_at_its_height():
+    a = Assist(AssistConfig(fraction=0.5, max_tilt=np.pi, max_height=0.85), WINDOW, 0.6)
+    mass, lying = np.full(3, 70.0), np.tile([1.0, 0.0, 0.0], (3, 1))  # tilted 90°
+    force = a.force_z(mass, lying, 9.81, height=np.array([0.3, 0.84, 0.9]))
+    np.testing.assert_allclose(force, [343.35, 343.35, 0.0])
+
+
 def test_anneals_by_success_then_switches_off_and_round_trips():
     a = Assist(AssistConfig(fraction=0.1, decay=0.5, floor=0.04), WINDOW, 0.6)
     assert not a.record(np.zeros(WINDOW, bool))  # failures: no decay

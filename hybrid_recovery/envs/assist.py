@@ -27,14 +27,18 @@ class Assist:
     def active(self) -> bool:
         return self.fraction > 0.0
 
-    def force_z(self, mass: np.ndarray, gravity_b: np.ndarray, g: float) -> np.ndarray:
+    def force_z(self, mass: np.ndarray, gravity_b: np.ndarray, g: float,
+                height: np.ndarray | None = None) -> np.ndarray:
         """Upward force per env, shape (N,) [N].
 
         Args:
             mass: total robot mass (N,) [kg]; gravity_b: torso projected gravity (N, 3).
+            height: CoM height h_c (N,) [m]; none pulled above ``cfg.max_height``.
         """
-        upright = -gravity_b[:, 2] > np.cos(self.cfg.max_tilt)
-        return self.fraction * mass * g * upright
+        on = -gravity_b[:, 2] > np.cos(self.cfg.max_tilt)
+        if height is not None:
+            on = on & (height < self.cfg.max_height)
+        return self.fraction * mass * g * on
 
     def assisted(self, start_poses: np.ndarray) -> np.ndarray:
         """Which episodes, by start pose name (N,), the force acts on, shape (N,) bool."""

@@ -190,6 +190,10 @@ class AssistConfig:
     """Torso tilt from vertical up to which the force acts [rad] (60°); π: any attitude,
     a pull that also lifts a robot off its back (the pulling-force curriculum of
     humanoid stand-up work)."""
+    max_height: float = float("inf")
+    """CoM height h_c above which the force stops [m]: a pull up to standing height that
+    leaves the robot to stand on its own rather than carrying it off the ground
+    (0.8 m g lifts a lying H1-2 to h_c ≈ 1.2 m; 1.0 m g off the ground)."""
     poses: list[str] | None = None
     """Start poses whose episodes get the force and whose outcomes (stood up or not)
     anneal it, while the other episodes go on counting for the curriculum; None: every

@@ -142,7 +142,7 @@ class RecoveryEnv(VecEnv):
             mass = self.randomizer.mass[:, 1:].sum(1)
             helped = self.assist.assisted(self._pose_names[self.start_pose])
             self.xfrc[:, self.torso, 2] += helped * self.assist.force_z(
-                mass, self._state["gravity_b"], GRAVITY)
+                mass, self._state["gravity_b"], GRAVITY, self._state["height"])
         failed = self._physics()
         self.episode_length_buf += 1
         self._read_state()
