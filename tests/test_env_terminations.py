@@ -90,6 +90,18 @@ def test_reset_clears_the_timer():
     np.testing.assert_array_equal(flags, [True, False])
 
 
+def test_each_env_keeps_its_own_window():
+    """Envs out of step (reset at different times) must not see each other's heights: a
+    robot lying still is stuck even while another one lies lower or rises."""
+    stuck = StuckLow(3, 2.0, 0.02, DT)
+    stuck.reset(np.arange(3), np.array([0.3, 0.1, 0.1]))
+    for k in range(150):
+        if k == 30:
+            stuck.reset(np.array([2]), np.array([0.1]))  # out of step from now on
+        flags = stuck.update(np.array([0.3, 0.1, 0.1 + 0.01 * k]), DT, np.ones(3, bool))
+    np.testing.assert_array_equal(flags, [True, True, False])
+
+
 # ---------------------------------------------------------------- success (SPEC §7)
 def gravity_at_tilt(deg: float) -> np.ndarray:
     t = np.deg2rad(deg)

@@ -62,7 +62,7 @@ class StuckLow:
     def update(self, height: np.ndarray, dt: float, low: np.ndarray) -> np.ndarray:
         """Adds one sample (every ``dt`` = the construction's dt); returns the stuck envs."""
         del dt
-        self.heights[:, self.steps % self.window] = height
+        self.heights[np.arange(len(self.steps)), self.steps % self.window] = height
         self.steps += 1
         full = self.steps >= self.window
         return low & full & self.enabled & (height - self.heights.min(axis=1) < self.rise)
