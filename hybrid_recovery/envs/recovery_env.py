@@ -140,7 +140,7 @@ class RecoveryEnv(VecEnv):
                                                        self.curriculum.difficulty)
         if self.assist.active:
             mass = self.randomizer.mass[:, 1:].sum(1)
-            helped = self.assist.assisted(self._pose_names[self.start_pose])
+            helped = self.assist.assisted(self._pose_names)[self.start_pose]  # 7 names, not N
             self.xfrc[:, self.torso, 2] += helped * self.assist.force_z(
                 mass, self._state["gravity_b"], GRAVITY, self._state["height"])
         failed = self._physics()
@@ -362,7 +362,7 @@ class RecoveryEnv(VecEnv):
         if self.assist.active and self.cfg.assist.poses is None:  # the curriculum waits
             self.assist.record(counted[ids[scored]])
         else:  # assisted episodes anneal the assistance, the others count for the curriculum
-            helped = self.assist.assisted(names)
+            helped = self.assist.assisted(self._pose_names)[self.start_pose[ids]]
             self.assist.record(counted[ids[helped]])
             self.curriculum.record(counted[ids[scored & ~helped]])
         log["curriculum/assist_fraction"] = float(self.assist.fraction)
