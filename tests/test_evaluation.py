@@ -174,3 +174,46 @@ def test_demo_runs_and_writes_a_report(tmp_path):
     report = run_demo(tmp_path, video=False)
     text = report.read_text()
     assert "push 200 N forward" in text and "stand up from supine" in text
+
+
+def test_results_record_the_policy_and_the_report_compares_budgets(tmp_path):
+    from hybrid_recovery.evaluation.report import comparison_table, write_report
+    from hybrid_recovery.evaluation.runner import header_provenance
+    from hybrid_recovery.policy.shipped import resolve_policy
+
+    shipped_dir = resolve_policy("shipped")
+    shipped = json.loads((shipped_dir / "policy.json").read_text())
+    results = tmp_path / "learned.jsonl"
+    run_protocol([Scenario("standing", duration=0.2, noise=0.0)], "learned", results,
+                 workers=1, progress=False)
+    header = json.loads(results.read_text().splitlines()[0])
+    assert header["policy"] == shipped["provenance"]
+    assert header_provenance(header) == shipped["provenance"]
+    # results written before the header held it: read from the policy.json beside the ONNX
+    del header["policy"]
+    header["controller"] = f"onnx:{shipped_dir / 'policy.onnx'}"
+    assert header_provenance(header) == shipped["provenance"]
+    assert header_provenance({"controller": "zero"}) is None
+
+    def rows(stuck, n=10):
+        return [{"pose": "supine", "force": 0.0, "success": False, "recovery_time": None,
+                 "stuck_low": k < stuck, "fell": True} for k in range(n)]
+
+    runs = {"full a": rows(6), "full b": rows(3), "reduced a": rows(10), "zero": rows(0, 4)}
+    provenance = {"full a": {"variant": "full", "iteration": 800, "env_steps": 19_685_376},
+                  "full b": {"variant": "full", "iteration": 1350, "env_steps": 33_202_176},
+                  "reduced a": {"variant": "reduced", "iteration": 800,
+                                "env_steps": 19_685_376}}
+    table = comparison_table(runs, provenance).splitlines()
+    lo, hi = wilson_interval(6, 10)
+    none_hi = wilson_interval(0, 10)[1]
+    assert table[2] == (f"| full a | full | 800 | 19.7 | 10 | 0.0% | [0.0%, {none_hi:.1%}] | "
+                        f"60.0% | [{lo:.1%}, {hi:.1%}] | 10 |")
+    assert table[4].split(" | ")[7] == "100.0%" and table[5].startswith("| zero | – | – | – | 4 |")
+    report = write_report(runs, tmp_path / "report", "budgets", provenance=provenance)
+    assert "## Comparison" in report.read_text()
+    assert (tmp_path / "report" / "stuck_low_vs_budget.png").stat().st_size > 10_000
+    # one controller with a known budget: no figure to draw
+    write_report({"full a": runs["full a"], "zero": runs["zero"]}, tmp_path / "one",
+                 "one", provenance=provenance)
+    assert not (tmp_path / "one" / "stuck_low_vs_budget.png").exists()

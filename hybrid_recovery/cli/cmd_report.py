@@ -11,19 +11,22 @@ from hybrid_recovery.cli.registry import command
 def _report(args: argparse.Namespace) -> int:
     from hybrid_recovery.evaluation.ablation import ablation_table
     from hybrid_recovery.evaluation.report import write_report
-    from hybrid_recovery.evaluation.runner import load_results
+    from hybrid_recovery.evaluation.runner import header_provenance, load_results
     from hybrid_recovery.training.record import plot_curves
 
-    results = {}
+    results, provenance = {}, {}
     for path in args.results:
         rows = load_results(path)
         header = next((r for r in rows if r.get("key") == "__header__"), {})
         label = f"{header.get('controller', Path(path).parent.name)} ({Path(path).parent.name})"
         results[label] = [r for r in rows if r.get("key") != "__header__"]
+        if (policy := header_provenance(header)) is not None:
+            provenance[label] = policy
     runs = dict(item.split("=", 1) if "=" in item else (Path(item).name, item)
                 for item in args.runs)
     table = ablation_table(runs, same_budget=not args.whole_runs) if runs else None
-    print(write_report(results, args.out, args.title, ablation=table))
+    print(write_report(results, args.out, args.title, ablation=table,
+                       provenance=provenance))
     if runs:
         print(plot_curves(runs, Path(args.out) / "training_curves.png"))
     return 0

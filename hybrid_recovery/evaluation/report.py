@@ -69,6 +69,67 @@ def strategy_table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def _share(rows: list[dict], key: str) -> tuple[float, float, float]:
+    """Rate of ``key`` over ``rows`` with its 95 % Wilson interval."""
+    k = sum(bool(r.get(key)) for r in rows)
+    lo, hi = wilson_interval(k, len(rows))
+    return (k / len(rows) if rows else float("nan"), lo, hi)
+
+
+def comparison_table(results: dict[str, list[dict]],
+                     provenance: dict[str, dict] | None = None) -> str:
+    """Markdown table, one row per controller: its training provenance (variant,
+    iteration, env steps) where known, then success and stuck-low rates over all its
+    trials with 95 % CIs: the ablation's figures at deployment settings."""
+    provenance = provenance or {}
+    lines = ["| controller | variant | iteration | env steps [M] | trials | success | "
+             "95 % CI | stuck low | 95 % CI | falls |", "|---" * 10 + "|"]
+    for label, rows in results.items():
+        prov = provenance.get(label) or {}
+        steps = prov.get("env_steps")
+        succ, stuck = _share(rows, "success"), _share(rows, "stuck_low")
+        cells = [label, prov.get("variant", "–"), prov.get("iteration", "–"),
+                 "–" if steps is None else f"{steps / 1e6:.1f}", len(rows),
+                 f"{succ[0]:.1%}", f"[{succ[1]:.1%}, {succ[2]:.1%}]",
+                 f"{stuck[0]:.1%}", f"[{stuck[1]:.1%}, {stuck[2]:.1%}]",
+                 sum(bool(r["fell"]) for r in rows)]
+        lines.append("| " + " | ".join(str(c) for c in cells) + " |")
+    return "\n".join(lines)
+
+
+def stuck_low_figure(results: dict[str, list[dict]], provenance: dict[str, dict],
+                     path: Path) -> bool:
+    """Stuck-low rate over all trials against the policy's training env steps, one line
+    per training variant, with 95 % CIs. Returns False (and draws nothing) unless at
+    least two controllers have known env steps."""
+    points: dict[str, list[tuple[float, tuple[float, float, float]]]] = defaultdict(list)
+    for label, rows in results.items():
+        prov = provenance.get(label) or {}
+        if rows and prov.get("env_steps") is not None:
+            points[prov.get("variant", label)].append(
+                (prov["env_steps"] / 1e6, _share(rows, "stuck_low")))
+    if sum(len(v) for v in points.values()) < 2:
+        return False
+    fig, ax = plt.subplots(figsize=(5.5, 3.6))
+    for variant, pts in sorted(points.items()):
+        pts.sort()
+        x = np.array([p[0] for p in pts])
+        rate = np.array([p[1][0] for p in pts])
+        err = np.array([[r - lo, hi - r] for _, (r, lo, hi) in pts]).T
+        ax.errorbar(x, rate, yerr=err, marker="o", capsize=3, label=variant)
+    ax.set_xlabel("training env steps [millions]")
+    ax.set_ylabel("stuck-low rate (all trials)")
+    ax.set_xlim(left=0.0)
+    ax.set_ylim(-0.02, 1.02)
+    ax.grid(alpha=0.3)
+    ax.legend(fontsize=8)
+    ax.set_title("Stuck low at deployment settings, by training budget")
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return True
+
+
 def _plot_lines(rows, x_key, y_fn, ylabel, title, path, x_label):
     fig, ax = plt.subplots(figsize=(5.5, 3.6))
     for (pose,), group in _group(rows, "pose").items():
@@ -179,7 +240,7 @@ def capture_point_figure(trace: dict, push_time: float, path: Path, title: str =
 def write_report(results: dict[str, list[dict]], out_dir: str | Path, title: str,
                  cp_traces: dict[str, tuple[dict, float]] | None = None,
                  ablation: str | None = None, notes: str = "",
-                 sweep_plots: bool = True) -> Path:
+                 sweep_plots: bool = True, provenance: dict[str, dict] | None = None) -> Path:
     """Writes ``report.md`` and its PNGs for one or more controllers' results.
 
     Args:
@@ -190,10 +251,17 @@ def write_report(results: dict[str, list[dict]], out_dir: str | Path, title: str
         ablation: a Markdown ablation table to include.
         notes: Markdown paragraphs placed after the title.
         sweep_plots: draw the force/direction/height panels when forces vary.
+        provenance: controller label → its policy's training provenance (``variant``,
+            ``iteration``, ``env_steps``), for the comparison table and the stuck-low
+            figure drawn when there are several controllers.
     """
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     md = [f"# {title}", "", notes, ""]
+    if len(results) > 1:
+        md += ["## Comparison", "", comparison_table(results, provenance), ""]
+        if stuck_low_figure(results, provenance or {}, out / "stuck_low_vs_budget.png"):
+            md += ["![stuck-low rate by training budget](stuck_low_vs_budget.png)", ""]
     for label, rows in results.items():
         safe = "".join(ch if ch.isalnum() else "_" for ch in label)[:40]
         md += [f"## {label}", "", summary_table(rows), ""]

@@ -48,6 +48,29 @@ def load_results(results: str | Path) -> list[dict]:
     return rows
 
 
+def policy_provenance(controller) -> dict | None:
+    """The training provenance (variant, commit, iteration, env steps) of a controller
+    that runs an exported policy; None for any other controller."""
+    description = getattr(getattr(controller, "policy", None), "description", None)
+    return description.get("provenance") if isinstance(description, dict) else None
+
+
+def header_provenance(header: dict) -> dict | None:
+    """The policy provenance of a results file's header: recorded there by
+    :func:`run_protocol`, else read from the ``policy.json`` of an ``onnx:PATH``
+    controller that still exists (results written before it was recorded)."""
+    if "policy" in header:
+        return header["policy"]
+    kind, _, arg = str(header.get("controller", "")).partition(":")
+    if kind != "onnx" or not arg:
+        return None
+    path = Path(arg)
+    description = (path if path.is_dir() else path.parent) / "policy.json"
+    if not description.is_file():
+        return None
+    return json.loads(description.read_text()).get("provenance")
+
+
 def run_protocol(scenarios: list[Scenario], controller: str, results: str | Path,
                  model_path: str | None = None, contact: str = "default", workers: int = 2,
                  header: dict | None = None, progress: bool = True) -> list[dict]:
@@ -61,12 +84,14 @@ def run_protocol(scenarios: list[Scenario], controller: str, results: str | Path
     """
     results = Path(results)
     results.parent.mkdir(parents=True, exist_ok=True)
-    make_controller(controller)  # fail fast on a bad spec, before forking
+    built = make_controller(controller)  # fail fast on a bad spec, before forking
     done = completed_keys(results)
     todo = [s for s in scenarios if s.key not in done]
     if not results.is_file():
         meta = {"key": "__header__", "controller": controller, "model": model_path,
                 "contact": contact, **(header or {})}
+        if (policy := policy_provenance(built)) is not None:
+            meta["policy"] = policy
         results.write_text(json.dumps(meta) + "\n")
     start, count, shown = time.time(), 0, 0.0
     with results.open("a") as out:
