@@ -19,9 +19,10 @@ from hybrid_recovery.evaluation.success import wilson_interval  # noqa: E402
 _DIRECTION_NAMES = {round(v, 4): k for k, v in SWEEP_DIRECTIONS.items()}
 
 
-def _rate(rows: list[dict]) -> tuple[float, float, float, int]:
+def _rate(rows: list[dict], key: str = "success") -> tuple[float, float, float, int]:
+    """Share of ``rows`` whose ``key`` is true, its 95 % Wilson interval, and the count."""
     n = len(rows)
-    k = sum(r["success"] for r in rows)
+    k = sum(bool(r.get(key)) for r in rows)
     lo, hi = wilson_interval(k, n)
     return (k / n if n else float("nan"), lo, hi, n)
 
@@ -69,13 +70,6 @@ def strategy_table(rows: list[dict]) -> str:
     return "\n".join(lines)
 
 
-def _share(rows: list[dict], key: str) -> tuple[float, float, float]:
-    """Rate of ``key`` over ``rows`` with its 95 % Wilson interval."""
-    k = sum(bool(r.get(key)) for r in rows)
-    lo, hi = wilson_interval(k, len(rows))
-    return (k / len(rows) if rows else float("nan"), lo, hi)
-
-
 def comparison_table(results: dict[str, list[dict]],
                      provenance: dict[str, dict] | None = None) -> str:
     """Markdown table, one row per controller: its training provenance (variant,
@@ -87,7 +81,7 @@ def comparison_table(results: dict[str, list[dict]],
     for label, rows in results.items():
         prov = provenance.get(label) or {}
         steps = prov.get("env_steps")
-        succ, stuck = _share(rows, "success"), _share(rows, "stuck_low")
+        succ, stuck = _rate(rows), _rate(rows, "stuck_low")
         cells = [label, prov.get("variant", "–"), prov.get("iteration", "–"),
                  "–" if steps is None else f"{steps / 1e6:.1f}", len(rows),
                  f"{succ[0]:.1%}", f"[{succ[1]:.1%}, {succ[2]:.1%}]",
@@ -102,12 +96,12 @@ def stuck_low_figure(results: dict[str, list[dict]], provenance: dict[str, dict]
     """Stuck-low rate over all trials against the policy's training env steps, one line
     per training variant, with 95 % CIs. Returns False (and draws nothing) unless at
     least two controllers have known env steps."""
-    points: dict[str, list[tuple[float, tuple[float, float, float]]]] = defaultdict(list)
+    points: dict[str, list[tuple[float, tuple[float, float, float, int]]]] = defaultdict(list)
     for label, rows in results.items():
         prov = provenance.get(label) or {}
         if rows and prov.get("env_steps") is not None:
             points[prov.get("variant", label)].append(
-                (prov["env_steps"] / 1e6, _share(rows, "stuck_low")))
+                (prov["env_steps"] / 1e6, _rate(rows, "stuck_low")))
     if sum(len(v) for v in points.values()) < 2:
         return False
     fig, ax = plt.subplots(figsize=(5.5, 3.6))
@@ -115,7 +109,7 @@ def stuck_low_figure(results: dict[str, list[dict]], provenance: dict[str, dict]
         pts.sort()
         x = np.array([p[0] for p in pts])
         rate = np.array([p[1][0] for p in pts])
-        err = np.array([[r - lo, hi - r] for _, (r, lo, hi) in pts]).T
+        err = np.array([[r - lo, hi - r] for _, (r, lo, hi, _n) in pts]).T
         ax.errorbar(x, rate, yerr=err, marker="o", capsize=3, label=variant)
     ax.set_xlabel("training env steps [millions]")
     ax.set_ylabel("stuck-low rate (all trials)")

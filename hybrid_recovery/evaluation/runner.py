@@ -12,6 +12,8 @@ from pathlib import Path
 from hybrid_recovery.evaluation.controllers import make_controller
 from hybrid_recovery.evaluation.scenario import Scenario
 from hybrid_recovery.evaluation.trial import run_trial
+from hybrid_recovery.policy.description import load_policy_description
+from hybrid_recovery.policy.onnx_policy import DESCRIPTION
 
 _WORKER: dict = {}
 
@@ -65,10 +67,10 @@ def header_provenance(header: dict) -> dict | None:
     if kind != "onnx" or not arg:
         return None
     path = Path(arg)
-    description = (path if path.is_dir() else path.parent) / "policy.json"
+    description = (path if path.is_dir() else path.parent) / DESCRIPTION
     if not description.is_file():
         return None
-    return json.loads(description.read_text()).get("provenance")
+    return load_policy_description(description).get("provenance")
 
 
 def run_protocol(scenarios: list[Scenario], controller: str, results: str | Path,
