@@ -201,6 +201,31 @@ class AssistConfig:
 
 
 @dataclass
+class ReplayConfig:
+    """Start-state replay (beyond the paper; off by default), see
+    :mod:`hybrid_recovery.envs.replay`.
+
+    States sampled every ``interval_s`` along episodes from ``poses`` that stood up, taken
+    while the CoM was still below the success height, are buffered; a ``fraction`` of
+    resets then starts from one of them, unassisted. With assistance restricted to the low
+    poses (``assist.poses``) no episode from those poses is ever unaided, so the policy
+    never practises the rise it has to make alone; replayed starts are such episodes, and
+    they begin at every phase of rises it has made with help. Their outcomes are logged
+    as ``replay/*`` and count neither for the curriculum nor for the assistance.
+    """
+
+    fraction: float = 0.0
+    """Share of resets that start from a buffered state; 0 = off (the paper)."""
+    poses: tuple[str, ...] | None = None
+    """Start poses whose stand-ups are recorded; None: every pose."""
+    interval_s: float = 0.5
+    """Sampling period along an episode [s]."""
+    capacity: int = 4096
+    """Buffered states (a ring: the oldest are replaced). Not saved with checkpoints: a
+    resumed run refills it from its first stand-ups."""
+
+
+@dataclass
 class EnvConfig:
     """The recovery environment (SPEC §2–§6)."""
 
@@ -249,6 +274,7 @@ class EnvConfig:
     pushes: PushConfig = field(default_factory=PushConfig)
     curriculum: CurriculumConfig = field(default_factory=CurriculumConfig)
     assist: AssistConfig = field(default_factory=AssistConfig)
+    replay: ReplayConfig = field(default_factory=ReplayConfig)
 
 
 def default_config() -> EnvConfig:

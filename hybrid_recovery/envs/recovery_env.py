@@ -31,6 +31,7 @@ from hybrid_recovery.envs.initial_states import (
     settle_pool,
 )
 from hybrid_recovery.envs.pushes import Pushes
+from hybrid_recovery.envs.replay import StartReplay
 from hybrid_recovery.envs.rewards import RewardState, compute_rewards
 from hybrid_recovery.envs.scene import build_scene, read_contacts
 from hybrid_recovery.envs.terminations import TERMINATIONS, StuckLow, success_step
@@ -87,6 +88,7 @@ class RecoveryEnv(VecEnv):
         self.assist = Assist(cfg.assist, cfg.curriculum.window, cfg.curriculum.advance_success)
         self.pushes = Pushes(cfg.pushes, n, self.dt)
         self.stuck = StuckLow(n, cfg.stuck_time, cfg.stuck_rise, self.dt)
+        self.replay = StartReplay(cfg.replay, n, m.nq, m.nv, self.max_episode_length, self.dt)
         self.pool = settle_pool(m, per_pose=32, rng=self.rng, nthread=cfg.num_threads)
         self.noise = noise_halfwidths(cfg.noise.ang_vel, cfg.noise.gravity, cfg.noise.joint_pos,
                                       cfg.noise.joint_vel)
@@ -102,14 +104,19 @@ class RecoveryEnv(VecEnv):
         self.stood_up = np.zeros(n, dtype=bool)
         self.start_pose = np.zeros(n, dtype=int)
         """Index into ``POSES`` of each env's episode start."""
+        self.replayed = np.zeros(n, dtype=bool)
+        """Episodes that started from a replayed state (:mod:`~.replay`)."""
         self._pose_names = np.asarray(POSES)
+        self._recorded_poses = np.isin(POSES, cfg.replay.poses) \
+            if cfg.replay.poses is not None else np.ones(len(POSES), dtype=bool)
         if cfg.curriculum.advance_on not in ("stood_up", "success"):
             raise ValueError(f"curriculum.advance_on must be 'stood_up' or 'success', got "
                              f"'{cfg.curriculum.advance_on}'")
         for key, named in (("curriculum.advance_poses", cfg.curriculum.advance_poses or ()),
                            ("curriculum.stage1_poses", cfg.curriculum.stage1_poses),
                            ("pose_weights", cfg.pose_weights),
-                           ("assist.poses", cfg.assist.poses or ())):
+                           ("assist.poses", cfg.assist.poses or ()),
+                           ("replay.poses", cfg.replay.poses or ())):
             unknown = set(named) - set(POSES)
             if unknown:
                 raise ValueError(f"{key} has unknown poses {sorted(unknown)}; "
@@ -141,8 +148,12 @@ class RecoveryEnv(VecEnv):
         if self.assist.active:
             mass = self.randomizer.mass[:, 1:].sum(1)
             helped = self.assist.assisted(self._pose_names)[self.start_pose]  # 7 names, not N
+            helped &= ~self.replayed
             self.xfrc[:, self.torso, 2] += helped * self.assist.force_z(
                 mass, self._state["gravity_b"], GRAVITY, self._state["height"])
+        if self.replay.active:
+            self.replay.record(self.episode_length_buf.numpy(), self.qpos, self.qvel,
+                               self._state["height"], self._recording())
         failed = self._physics()
         self.episode_length_buf += 1
         self._read_state()
@@ -165,6 +176,9 @@ class RecoveryEnv(VecEnv):
         self.upright_time = success_step(self.upright_time, s, self.dt)
         self.succeeded |= self.upright_time >= 1.0
         self.up_time = success_step(self.up_time, s, self.dt, still=False)
+        if self.replay.active:
+            rose = np.flatnonzero((self.up_time >= 1.0) & ~self.stood_up & self._recording())
+            self.replay.harvest(rose, self.start_pose[rose], self.cfg.upright_height)
         self.stood_up |= self.up_time >= 1.0
         done = terminated | time_out
         extras = {"time_outs": torch.from_numpy(time_out), "log": {}}
@@ -281,6 +295,11 @@ class RecoveryEnv(VecEnv):
         return np.concatenate([heading(rel), heading(s["com_vel"]), heading(s["com_acc"]),
                                heading(s["lin"]), heading(s["ang"]), heading(cp_rel)[:, :2]], 1)
 
+    def _recording(self) -> np.ndarray:
+        """Envs whose rise would enter the replay buffer: from a recorded pose, not
+        themselves replayed, (N,) bool."""
+        return self._recorded_poses[self.start_pose] & ~self.replayed
+
     # ------------------------------------------------------------------ resets
     def _sample_poses(self, count: int) -> np.ndarray:
         weights = np.array([self.cfg.pose_weights.get(p, 0.0) for p in POSES])
@@ -296,7 +315,6 @@ class RecoveryEnv(VecEnv):
     def _reset(self, ids: np.ndarray) -> None:
         n, dr, rng = len(ids), self.cfg.domain_rand, self.rng
         poses = self._sample_poses(n)
-        self.start_pose[ids] = poses
         qpos = np.empty((n, self.model.nq))
         for k, name in enumerate(POSES):
             rows = np.flatnonzero(poses == k)
@@ -305,6 +323,13 @@ class RecoveryEnv(VecEnv):
                 qpos[rows] = pool[rng.integers(len(pool), size=len(rows))]
         qpos = perturb_start(qpos, rng, dr.init_base_pos, dr.init_base_rot, dr.init_joint_pos,
                              self.qadr, self.model.jnt_range[1:1 + self.num_actions])
+        replayed = self.replay.draw(n, rng)
+        qvel = np.zeros((n, self.model.nv))
+        if replayed.any():  # a state along an earlier rise, as it was (moving)
+            qpos[replayed], qvel[replayed], poses[replayed] = self.replay.sample(
+                int(replayed.sum()), rng)
+        self.start_pose[ids], self.replayed[ids] = poses, replayed
+        self.replay.clear(ids)
         self.randomizer.set_limits(ids, self.curriculum.torque_scale,
                                    self.curriculum.position_limit_factor)
         # start inside this episode's (scaled) joint ranges: the limit constraint would
@@ -313,7 +338,7 @@ class RecoveryEnv(VecEnv):
         qpos[:, self.qadr] = np.clip(qpos[:, self.qadr], lo, hi)
         self.sims.reset(ids, stage=mujoco.mjtStage.mjSTAGE_NONE)
         self.qpos[ids] = qpos
-        self.qvel[ids] = 0.0
+        self.qvel[ids] = qvel
         seat_on_ground(self.model, self.sims, ids)
         self.randomizer.randomize(ids, rng, self.curriculum.difficulty)
         delay = rng.integers(self._delay_steps[0], self._delay_steps[1] + 1, n)
@@ -347,22 +372,26 @@ class RecoveryEnv(VecEnv):
             log[f"termination/{name}"] = torch.from_numpy(dones_by[name][ids].astype(np.float32))
         log["episode/success"] = torch.from_numpy(self.succeeded[ids].astype(np.float32))
         log["episode/stood_up"] = torch.from_numpy(self.stood_up[ids].astype(np.float32))
+        fresh = ~self.replayed[ids]  # replayed starts: logged apart, counted for nothing
         for k, pose in enumerate(POSES):  # by start pose, only when such episodes ended
-            mine = ids[self.start_pose[ids] == k]
+            mine = ids[(self.start_pose[ids] == k) & fresh]
             if len(mine):
                 log[f"pose_success/{pose}"] = torch.from_numpy(
                     self.succeeded[mine].astype(np.float32))
                 log[f"pose_stood_up/{pose}"] = torch.from_numpy(
                     self.stood_up[mine].astype(np.float32))
+        if self.replay.active:
+            log.update(self._replay_log(ids[~fresh]))
         counted = self.stood_up if self.cfg.curriculum.advance_on == "stood_up" else self.succeeded
         gated = self.cfg.curriculum.advance_poses
         names = self._pose_names[self.start_pose[ids]]
         scored = np.ones(len(ids), dtype=bool) if gated is None else np.isin(names, gated)
+        scored &= fresh
         log["episode/final_com_height"] = torch.from_numpy(self._state["height"][ids])
         if self.assist.active and self.cfg.assist.poses is None:  # the curriculum waits
             self.assist.record(counted[ids[scored]])
         else:  # assisted episodes anneal the assistance, the others count for the curriculum
-            helped = self.assist.assisted(self._pose_names)[self.start_pose[ids]]
+            helped = self.assist.assisted(self._pose_names)[self.start_pose[ids]] & fresh
             self.assist.record(counted[ids[helped]])
             self.curriculum.record(counted[ids[scored & ~helped]])
         log["curriculum/assist_fraction"] = float(self.assist.fraction)
@@ -370,4 +399,18 @@ class RecoveryEnv(VecEnv):
         log["curriculum/level"] = float(self.curriculum.level)
         log["curriculum/torque_scale"] = float(self.curriculum.torque_scale)
         log["episode/nan_resets_total"] = float(self.nan_resets)
+        return log
+
+    def _replay_log(self, ids: np.ndarray) -> dict:
+        """``replay/*``: outcomes of the finished replayed episodes ``ids``, by the pose
+        their state came from, and the buffer's size."""
+        log: dict[str, torch.Tensor | float] = {"replay/buffer_size": float(self.replay.size)}
+        if len(ids):
+            log["replay/stood_up"] = torch.from_numpy(self.stood_up[ids].astype(np.float32))
+            log["replay/success"] = torch.from_numpy(self.succeeded[ids].astype(np.float32))
+        for k, pose in enumerate(POSES):
+            mine = ids[self.start_pose[ids] == k]
+            if len(mine):
+                log[f"replay_stood_up/{pose}"] = torch.from_numpy(
+                    self.stood_up[mine].astype(np.float32))
         return log
