@@ -110,3 +110,17 @@ def test_the_ablation_table_compares_runs_at_the_same_budget(tmp_path):
     assert "| stuck-low rate | – | 1.000 |" in table
     whole = ablation_table({"long": long, "short": short}, same_budget=False)
     assert f"| stand-up success | {np.mean(np.arange(72, 80) / 100.0):.3f} | – |" in whole
+
+
+def test_curves_draw_the_chosen_panels(tmp_path, monkeypatch):
+    _fake_run(tmp_path)
+    titles = []
+    real_draw = record_module._draw
+    monkeypatch.setattr(record_module, "_draw",
+                        lambda ax, scalar, *a, **k: (titles.append(ax.get_title()),
+                                                     real_draw(ax, scalar, *a, **k)))
+    chosen = (("pose_stood_up/supine", "supine"), ("Train/mean_reward", "reward"),
+              ("termination/stuck_low", "not logged"), ("episode/success", "success"))
+    out = plot_curves(tmp_path, tmp_path / "chosen.png", curves=chosen, by_pose=False)
+    assert out.stat().st_size > 10_000
+    assert titles == ["supine", "reward", "success"]  # in order; none for a missing tag

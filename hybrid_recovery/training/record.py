@@ -10,7 +10,7 @@ from __future__ import annotations
 import json
 import os
 import platform
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -116,14 +116,17 @@ def _draw(ax, scalar: tuple[np.ndarray, np.ndarray], per_iteration: int, **style
 
 
 def plot_curves(runs: str | Path | Mapping[str, str | Path], out: str | Path,
-                title: str | None = None, upto: int | None = None) -> Path:
-    """Writes learning curves (:data:`CURVES`) against env steps as a PNG.
+                title: str | None = None, upto: int | None = None,
+                curves: Sequence[tuple[str, str]] = CURVES, by_pose: bool = True) -> Path:
+    """Writes learning curves against env steps as a PNG.
 
     Args:
         runs: one run directory, or label → run directory to compare runs on one figure.
         out: the PNG path.
         title: figure title (default: the runs and their sizes).
         upto: draw iterations ≤ upto only (an exported checkpoint's curves).
+        curves: (TensorBoard tag, panel title) of each panel (default :data:`CURVES`).
+        by_pose: add a last panel with the first run's stood-up rates by start pose.
     """
     import matplotlib
 
@@ -133,9 +136,12 @@ def plot_curves(runs: str | Path | Mapping[str, str | Path], out: str | Path,
     if isinstance(runs, str | Path):
         runs = {Path(runs).name: runs}
     out = Path(out)
-    fig, axes = plt.subplots(3, 3, figsize=(13, 9.5))
-    panels = [*CURVES, ("pose_stood_up/", "stood up, by start pose")]
-    for ax, (_, label) in zip(axes.flat, panels, strict=True):
+    panels = [*curves, *([("pose_stood_up/", "stood up, by start pose")] if by_pose else [])]
+    rows = -(-len(panels) // 3)
+    fig, axes = plt.subplots(rows, 3, figsize=(13, 3.2 * rows), squeeze=False)
+    for ax in axes.flat[len(panels):]:
+        ax.set_visible(False)
+    for ax, (_, label) in zip(axes.flat, panels, strict=False):
         ax.set_title(label, fontsize=9)
         ax.set_xlabel("env steps [millions]", fontsize=8)
         ax.grid(alpha=0.3)
@@ -150,20 +156,21 @@ def plot_curves(runs: str | Path | Mapping[str, str | Path], out: str | Path,
         per_iteration = config["num_envs"] * config["num_steps_per_env"]
         sizes.append(f"{name}: {config['num_envs']} envs")
 
-        for ax, (tag, _) in zip(axes.flat, CURVES, strict=False):
+        for ax, (tag, _) in zip(axes.flat, curves, strict=False):
             if tag in scalars:  # one colour per run in every panel
                 _draw(ax, scalars[tag], per_iteration, label=name, color=f"C{index}")
-        by_pose = sorted(t for t in scalars if t.startswith("pose_stood_up/"))
-        if by_pose and not axes.flat[-1].lines:  # the first run that logs them
-            axes.flat[-1].set_title(f"stood up, by start pose ({name})", fontsize=9)
-            for k, tag in enumerate(by_pose):
-                _draw(axes.flat[-1], scalars[tag], per_iteration, label=tag.split("/")[1],
+        pose_tags = sorted(t for t in scalars if t.startswith("pose_stood_up/"))
+        last = axes.flat[len(panels) - 1]
+        if by_pose and pose_tags and not last.lines:  # the first run that logs them
+            last.set_title(f"stood up, by start pose ({name})", fontsize=9)
+            for k, tag in enumerate(pose_tags):
+                _draw(last, scalars[tag], per_iteration, label=tag.split("/")[1],
                       color=f"C{k}")
         for number, amendment in enumerate(meta.get("amendments", []), 1):
             if upto is not None and amendment["iteration"] > upto:
                 continue
             x = amendment["iteration"] * per_iteration / 1e6
-            for ax in axes.flat:
+            for ax in axes.flat[:len(panels)]:
                 ax.axvline(x, color=f"C{index}", ls=":", lw=1)
             axes.flat[0].annotate(f"A{number}", (x, 1.0), xycoords=("data", "axes fraction"),
                                   fontsize=7, ha="center", va="bottom", color=f"C{index}")
