@@ -114,3 +114,20 @@ def test_assisted_episodes_anneal_the_pull_and_the_others_feed_the_curriculum():
                                                                      "torso_contact",
                                                                      "stuck_low", "nan")})
     assert len(everyone.curriculum._outcomes) == 0 and everyone.assist.fraction < 0.5
+
+
+@pytest.mark.parametrize("window", [None, 4.0, float("inf")])
+def test_assisted_episodes_can_have_their_own_stuck_low_window(window):
+    env = _pose_env(fraction=0.5, poses=["supine"], stuck_time=window)
+    helped = np.arange(8) % 2 == 1
+    env.stuck.reset(np.arange(8), np.full(8, 0.3))
+    if env.stuck_assisted is not None:
+        env.stuck_assisted.reset(np.arange(8), np.full(8, 0.3))
+    first = np.full(8, np.inf)
+    for step in range(1, 301):  # 6 s lying still at h_c = 0.3 m
+        stuck = env._stuck_low(np.full(8, 0.3), helped)
+        first[stuck & np.isinf(first)] = step * env.dt
+    np.testing.assert_allclose(first[~helped], 2.0)  # everyone else: the env's 2 s
+    expected = {None: 2.0, 4.0: 4.0, float("inf"): np.inf}[window]
+    np.testing.assert_allclose(first[helped], expected)
+    env.step(torch.zeros(8, env.num_actions))  # the step takes the same path

@@ -88,6 +88,9 @@ class RecoveryEnv(VecEnv):
         self.assist = Assist(cfg.assist, cfg.curriculum.window, cfg.curriculum.advance_success)
         self.pushes = Pushes(cfg.pushes, n, self.dt)
         self.stuck = StuckLow(n, cfg.stuck_time, cfg.stuck_rise, self.dt)
+        self.stuck_assisted = None if cfg.assist.stuck_time is None else StuckLow(
+            n, cfg.assist.stuck_time, cfg.stuck_rise, self.dt)
+        """Stuck-low of the assisted episodes, where their window differs."""
         self.replay = StartReplay(cfg.replay, n, m.nq, m.nv, self.max_episode_length, self.dt)
         self.pool = settle_pool(m, per_pose=32, rng=self.rng, nthread=cfg.num_threads)
         self.noise = noise_halfwidths(cfg.noise.ang_vel, cfg.noise.gravity, cfg.noise.joint_pos,
@@ -145,10 +148,10 @@ class RecoveryEnv(VecEnv):
         self.ctrl[:] = targets  # applied delay_steps substeps late by MuJoCo
         self.xfrc[:, self.torso, :3] = self.pushes.force(self.upright_time, self.rng,
                                                        self.curriculum.difficulty)
+        helped = self.assist.assisted(self._pose_names)[self.start_pose]  # 7 names, not N
+        helped &= ~self.replayed
         if self.assist.active:
             mass = self.randomizer.mass[:, 1:].sum(1)
-            helped = self.assist.assisted(self._pose_names)[self.start_pose]  # 7 names, not N
-            helped &= ~self.replayed
             self.xfrc[:, self.torso, 2] += helped * self.assist.force_z(
                 mass, self._state["gravity_b"], GRAVITY, self._state["height"])
         if self.replay.active:
@@ -160,8 +163,7 @@ class RecoveryEnv(VecEnv):
         s = self._state
         dones_by = {
             "torso_contact": s["torso_force"] > self.cfg.torso_force_limit,
-            "stuck_low": self.stuck.update(s["height"], self.dt,
-                                           s["height"] < self.cfg.upright_height),
+            "stuck_low": self._stuck_low(s["height"], helped),
             "nan": failed,
         }
         terminated = np.logical_or.reduce(list(dones_by.values()))
@@ -207,6 +209,15 @@ class RecoveryEnv(VecEnv):
             ids = np.flatnonzero(failed)
             self._reset(ids)
         return failed
+
+    def _stuck_low(self, height: np.ndarray, helped: np.ndarray) -> np.ndarray:
+        """The stuck-low termination after one step, (N,) bool; the ``helped`` (assisted)
+        envs by their own window where ``assist.stuck_time`` is set."""
+        low = height < self.cfg.upright_height
+        stuck = self.stuck.update(height, self.dt, low)
+        if self.stuck_assisted is None:
+            return stuck
+        return np.where(helped, self.stuck_assisted.update(height, self.dt, low), stuck)
 
     # ------------------------------------------------------------------ state
     def _com_height(self, qpos: np.ndarray) -> float:
@@ -355,7 +366,10 @@ class RecoveryEnv(VecEnv):
         self.xfrc[ids] = 0.0
         self.sims.forward(ids)
         self.pushes.reset(ids, rng)
-        self.stuck.reset(ids, self.sims.bind("sensordata")[ids, self.layout.com][:, 2])
+        height = self.sims.bind("sensordata")[ids, self.layout.com][:, 2]
+        self.stuck.reset(ids, height)
+        if self.stuck_assisted is not None:
+            self.stuck_assisted.reset(ids, height)
         self.episode_length_buf[torch.from_numpy(ids)] = 0
         self.upright_time[ids] = 0.0
         self.succeeded[ids] = False
