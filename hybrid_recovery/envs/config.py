@@ -200,13 +200,12 @@ class AssistConfig:
     episode is assisted and the curriculum waits for the assistance to end."""
     stuck_time: float | None = None
     """Stuck-low window of assisted episodes [s] (``inf``: none); None: the env's
-    ``stuck_time``, as for every episode. With the corrected 2 s detector (full_se 2451
-    on), assisted episodes from the low poses stood up in 3–8 % (kneeling) and 0–5 %
-    (supine, sitting) against 40–80 % before it, when the faulty detector seldom ended
-    them, and the pull stopped annealing: the robot hangs at the pull's stop height,
-    below the success height, and is ended after 2 s (full_se 2725, deterministic, 64
-    episodes from kneeling at 0.72 m g: all stuck low after a median 2.3 s at a median
-    peak h_c of 0.86 m)."""
+    ``stuck_time``, as for every episode. Why one might lengthen it: with the corrected
+    2 s detector (full_se 2451 on), assisted training episodes from kneeling stood up in
+    4 % against 43 % before it, when the faulty detector seldom ended them; the robot
+    hangs at the pull's stop height, below the success height, and is ended after 2 s.
+    Measured: 6 s (the full_stuck fork, 2776–3050) made episodes 20 % longer and brought
+    no stand-ups back (training/README.md)."""
 
 
 @dataclass
