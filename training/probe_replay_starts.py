@@ -59,7 +59,7 @@ def collect(run: Path, states: int, seed: int) -> dict[str, np.ndarray]:
 def probe(run: Path, buffer: dict[str, np.ndarray], num_envs: int, seed: int) -> dict:
     """Deterministic unassisted episodes of ``run``'s latest actor from buffered states."""
     env, data = _env(run, num_envs, seed)
-    env.cfg.replay.fraction = 1.0
+    env.replay.cfg.fraction = 1.0  # every reset from the buffer
     env.assist.fraction = 0.0
     n = len(buffer["pose"])
     env.replay.qpos[:n], env.replay.qvel[:n], env.replay.pose[:n] = (
