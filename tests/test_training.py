@@ -15,6 +15,7 @@ import pytest
 import torch
 
 from hybrid_recovery.envs import RecoveryEnv
+from hybrid_recovery.envs.initial_states import POSES
 from hybrid_recovery.envs.rewards import CAPTURE_POINT_TERMS
 from hybrid_recovery.observation import ACTOR_OBS_DIM
 from hybrid_recovery.training import TrainConfig, load_checkpoint, train
@@ -23,6 +24,7 @@ from hybrid_recovery.training.export import (
     export_policy,
     load_policy_description,
 )
+from hybrid_recovery.training.probe import first_episodes, training_env
 from hybrid_recovery.training.runner import make_env_config
 from hybrid_recovery.training.variants import VARIANTS
 
@@ -259,3 +261,21 @@ def test_an_amended_assist_fraction_outranks_the_checkpoint(tmp_path):
     resumed = train(run, _cfg(iterations=3), resume=True, amend={"assist.fraction": 0.0})
     assert not resumed.env.assist.active
     assert load_checkpoint(run / "latest.pt")["infos"]["assist"]["fraction"] == 0.0
+
+
+def test_probe_plays_one_episode_per_env_in_the_runs_own_env(tmp_path):
+    run = tmp_path / "run"
+    train(run, _cfg(env_overrides={**FAST, "assist.fraction": 0.4}))
+    env, data = training_env(run, 4, seed=1, overrides={"pose_weights": {"supine": 1.0}})
+    assert env.assist.fraction == load_checkpoint(run / "latest.pt")["infos"]["assist"][
+        "fraction"] and int(data["iter"]) == 1
+    env.assist.fraction = 0.0
+    steps = []
+
+    def still(obs):  # holds the start pose: stuck low after 2 s
+        steps.append(1)
+        return torch.zeros(obs["policy"].shape[0], env.num_actions)
+
+    stood, pose = first_episodes(env, still)
+    assert not stood.any() and (pose == POSES.index("supine")).all()
+    assert len(steps) == pytest.approx(env.cfg.stuck_time / env.dt, abs=2)

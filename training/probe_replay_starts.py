@@ -18,29 +18,14 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from hybrid_recovery.envs import RecoveryEnv
 from hybrid_recovery.envs.initial_states import POSES
-from hybrid_recovery.training.checkpoint import LATEST, load_checkpoint
-from hybrid_recovery.training.config import train_config_from_dict
 from hybrid_recovery.training.export import actor_from_checkpoint
-from hybrid_recovery.training.runner import make_env_config
-
-
-def _env(run: Path, num_envs: int, seed: int) -> tuple[RecoveryEnv, dict]:
-    data = load_checkpoint(run / LATEST)
-    cfg = train_config_from_dict(json.loads((run / "config.json").read_text())["train_config"])
-    cfg.num_envs, cfg.num_threads, cfg.seed = num_envs, 1, seed
-    env_cfg = make_env_config(cfg)
-    env_cfg.curriculum.stage1_poses = tuple(POSES)  # any pose from the first reset on
-    env = RecoveryEnv(env_cfg)
-    env.curriculum.load_state_dict(data["infos"]["curriculum"])
-    env.assist.load_state_dict(data["infos"]["assist"])
-    return env, data
+from hybrid_recovery.training.probe import first_episodes, training_env
 
 
 def collect(run: Path, states: int, seed: int) -> dict[str, np.ndarray]:
     """Buffered states of ``run``'s training env once it holds ``states`` of them."""
-    env, data = _env(run, 256, seed)
+    env, data = training_env(run, 256, seed)
     if not env.replay.active:
         raise ValueError(f"{run} does not use start-state replay (replay.fraction = 0)")
     actor = actor_from_checkpoint(data)
@@ -58,30 +43,14 @@ def collect(run: Path, states: int, seed: int) -> dict[str, np.ndarray]:
 
 def probe(run: Path, buffer: dict[str, np.ndarray], num_envs: int, seed: int) -> dict:
     """Deterministic unassisted episodes of ``run``'s latest actor from buffered states."""
-    env, data = _env(run, num_envs, seed)
+    env, data = training_env(run, num_envs, seed)
     env.replay.cfg.fraction = 1.0  # every reset from the buffer
     env.assist.fraction = 0.0
     n = len(buffer["pose"])
     env.replay.qpos[:n], env.replay.qvel[:n], env.replay.pose[:n] = (
         buffer["qpos"], buffer["qvel"], buffer["pose"])
     env.replay.size = n
-    ids = np.arange(num_envs)
-    env._reset(ids)
-    env._read_state(ids)
-    env._obs = env._observations()
-    actor = actor_from_checkpoint(data)
-    obs = env.get_observations()
-    done, stood = np.zeros(num_envs, bool), np.zeros(num_envs, bool)
-    pose = env.start_pose.copy()
-    while not done.all():
-        with torch.no_grad():
-            obs, _, dones, extras = env.step(actor(obs))
-        ended = np.flatnonzero(dones.numpy())  # the order of the episode log
-        if not len(ended):
-            continue
-        first = ~done[ended]
-        stood[ended[first]] = extras["log"]["episode/stood_up"].numpy()[first] > 0
-        done[ended] = True
+    stood, pose = first_episodes(env, actor_from_checkpoint(data))
     by_pose = {POSES[k]: f"{stood[pose == k].mean():.3f} of {int((pose == k).sum())}"
                for k in np.unique(pose)}
     return {"run": str(run), "iteration": int(data["iter"]), "stood_up": float(stood.mean()),

@@ -9,6 +9,7 @@ the paper's initialisation noise, re-seated so that no geom is below the ground.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import mujoco
@@ -112,23 +113,26 @@ def robot_geoms(model: mujoco.MjModel) -> np.ndarray:
 
 
 def settle_pool(model: mujoco.MjModel, per_pose: int, rng: np.random.Generator,
-                joint_noise: float = 0.1,
-                nthread: int = 0) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-    """Settled states of every pose: ``{pose: (qpos (per_pose, nq), qvel (per_pose, nv))}``."""
-    names = list(POSE_LIBRARY)
+                joint_noise: float = 0.1, nthread: int = 0,
+                library: Mapping[str, Pose] | None = None,
+                ) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """Settled states of every pose of ``library`` (default :data:`POSE_LIBRARY`):
+    ``{pose: (qpos (per_pose, nq), qvel (per_pose, nv))}``."""
+    library = POSE_LIBRARY if library is None else library
+    names = list(library)
     n = per_pose * len(names)
     sims = mjbatch.Batch(model, n, nthread, persistent=True)
     qpos, qvel, ctrl = sims.bind("qpos"), sims.bind("qvel"), sims.bind("ctrl")
     qadr = model.jnt_qposadr[1:1 + constants.NUM_JOINTS]
-    targets = np.repeat(np.stack([POSE_LIBRARY[p].joints for p in names]), per_pose, 0)
+    targets = np.repeat(np.stack([library[p].joints for p in names]), per_pose, 0)
     for k, name in enumerate(names):
-        if POSE_LIBRARY[name].mirrored:
+        if library[name].mirrored:
             rows = slice(k * per_pose + per_pose // 2, (k + 1) * per_pose)
             targets[rows] = constants.MIRROR_SIGN * targets[rows][:, constants.MIRROR_JOINT_INDEX]
     targets = targets + rng.uniform(-joint_noise, joint_noise, targets.shape)
     lo, hi = model.jnt_range[1:1 + constants.NUM_JOINTS].T
     targets = np.clip(targets, lo, hi)
-    pitch = np.repeat([POSE_LIBRARY[p].pitch for p in names], per_pose)
+    pitch = np.repeat([library[p].pitch for p in names], per_pose)
     qpos[:] = model.qpos0
     qvel[:] = 0.0
     qpos[:, qadr] = targets
@@ -137,8 +141,8 @@ def settle_pool(model: mujoco.MjModel, per_pose: int, rng: np.random.Generator,
     seat_on_ground(model, sims, np.arange(n), clearance=0.01)
     ctrl[:] = targets
     out, elapsed = {}, 0.0
-    for k, name in sorted(enumerate(names), key=lambda kn: POSE_LIBRARY[kn[1]].settle_time):
-        remaining = POSE_LIBRARY[name].settle_time - elapsed
+    for k, name in sorted(enumerate(names), key=lambda kn: library[kn[1]].settle_time):
+        remaining = library[name].settle_time - elapsed
         if remaining > 0:
             sims.step(nstep=int(round(remaining / model.opt.timestep)),
                       stage=mujoco.mjtStage.mjSTAGE_VEL)

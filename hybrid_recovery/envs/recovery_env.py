@@ -21,6 +21,7 @@ from hybrid_recovery.dynamics import GRAVITY, net_centroidal_wrench
 from hybrid_recovery.dynamics.capturability import capture_point
 from hybrid_recovery.dynamics.support import signed_distance_batched
 from hybrid_recovery.envs.assist import Assist
+from hybrid_recovery.envs.bridge import PoseBridge
 from hybrid_recovery.envs.config import EnvConfig, default_config
 from hybrid_recovery.envs.curriculum import Curriculum
 from hybrid_recovery.envs.domain_rand import Randomizer
@@ -93,6 +94,10 @@ class RecoveryEnv(VecEnv):
         """Stuck-low of the assisted episodes, where their window differs."""
         self.replay = StartReplay(cfg.replay, n, m.nq, m.nv, self.max_episode_length, self.dt)
         self.pool = settle_pool(m, per_pose=32, rng=self.rng, nthread=cfg.num_threads)
+        self.bridge = PoseBridge(cfg.bridge)
+        self.bridge_pool = settle_pool(m, per_pose=32, rng=self.rng, nthread=cfg.num_threads,
+                                       library=self.bridge.poses()) if cfg.bridge.levels else {}
+        """Settled blends of the start-pose bridge (:mod:`~.bridge`), by level name."""
         self.noise = noise_halfwidths(cfg.noise.ang_vel, cfg.noise.gravity, cfg.noise.joint_pos,
                                       cfg.noise.joint_vel)
         self.h_star = cfg.rewards.height_target or float(self._com_height(default_qpos(m)))
@@ -330,7 +335,9 @@ class RecoveryEnv(VecEnv):
         for k, name in enumerate(POSES):
             rows = np.flatnonzero(poses == k)
             if len(rows):
-                pool = self.pool[name][0]
+                bridged = k == self.bridge.target_index and self.bridge.active
+                pool = (self.bridge_pool[self.bridge.pool_name()] if bridged
+                        else self.pool[name])[0]
                 qpos[rows] = pool[rng.integers(len(pool), size=len(rows))]
         qpos = perturb_start(qpos, rng, dr.init_base_pos, dr.init_base_rot, dr.init_joint_pos,
                              self.qadr, self.model.jnt_range[1:1 + self.num_actions])
@@ -396,6 +403,10 @@ class RecoveryEnv(VecEnv):
                     self.stood_up[mine].astype(np.float32))
         if self.replay.active:
             log.update(self._replay_log(ids[~fresh]))
+        if self.cfg.bridge.levels:
+            self.bridge.record(self.stood_up[ids[(self.start_pose[ids] == self.bridge.target_index)
+                                                 & fresh]])
+            log["curriculum/bridge_blend"] = float(self.bridge.blend)
         counted = self.stood_up if self.cfg.curriculum.advance_on == "stood_up" else self.succeeded
         gated = self.cfg.curriculum.advance_poses
         names = self._pose_names[self.start_pose[ids]]

@@ -51,6 +51,7 @@ class RecoveryRunner(OnPolicyRunner):
         saved["infos"] = {**(infos or {}), "meta": self.meta,
                           "curriculum": self.env.curriculum.state_dict(),
                           "assist": self.env.assist.state_dict(),
+                          "bridge": self.env.bridge.state_dict(),
                           "env_steps": env_steps, "compute_time_s": self.compute_s,
                           "segments": self.segments}
         atomic_save(saved, path)
@@ -68,6 +69,8 @@ class RecoveryRunner(OnPolicyRunner):
         self.env.curriculum.load_state_dict(data["infos"]["curriculum"])
         if "assist" in data["infos"]:
             self.env.assist.load_state_dict(data["infos"]["assist"])
+        if "bridge" in data["infos"]:
+            self.env.bridge.load_state_dict(data["infos"]["bridge"])
         self.compute_s = data["infos"].get("compute_time_s")
         self.segments = [*data["infos"].get("segments", []),
                          {"iteration": self.current_learning_iteration, "hardware": hardware()}]

@@ -1,0 +1,59 @@
+"""Probes of a run's actor in its own training env: deterministic, unassisted episodes
+from chosen start states (used by the scripts in ``training/``)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import torch
+
+from hybrid_recovery.envs import RecoveryEnv, apply_overrides
+from hybrid_recovery.envs.initial_states import POSES
+from hybrid_recovery.training.checkpoint import LATEST, load_checkpoint
+from hybrid_recovery.training.config import train_config_from_dict
+from hybrid_recovery.training.runner import make_env_config
+
+
+def training_env(run: Path, num_envs: int, seed: int,
+                 overrides: dict | None = None) -> tuple[RecoveryEnv, dict]:
+    """``run``'s training env (its config, curriculum and assistance state at its latest
+    checkpoint, any pose from the first reset on) and that checkpoint.
+
+    Args:
+        overrides: dotted EnvConfig keys set before the env is built.
+    """
+    data = load_checkpoint(run / LATEST)
+    cfg = train_config_from_dict(json.loads((run / "config.json").read_text())["train_config"])
+    cfg.num_envs, cfg.num_threads, cfg.seed = num_envs, 1, seed
+    env_cfg = make_env_config(cfg)
+    env_cfg.curriculum.stage1_poses = tuple(POSES)
+    apply_overrides(env_cfg, overrides or {})
+    env = RecoveryEnv(env_cfg)
+    env.curriculum.load_state_dict(data["infos"]["curriculum"])
+    env.assist.load_state_dict(data["infos"]["assist"])
+    return env, data
+
+
+def first_episodes(env: RecoveryEnv, actor: torch.nn.Module) -> tuple[np.ndarray, np.ndarray]:
+    """Resets every env and plays the deterministic ``actor`` until each has ended one
+    episode. Returns (stood up (N,) bool, start pose index into ``POSES`` (N,))."""
+    n = env.num_envs
+    ids = np.arange(n)
+    env._reset(ids)
+    env._read_state(ids)
+    env._obs = env._observations()
+    obs = env.get_observations()
+    done, stood = np.zeros(n, bool), np.zeros(n, bool)
+    pose = env.start_pose.copy()
+    while not done.all():
+        with torch.no_grad():
+            obs, _, dones, extras = env.step(actor(obs))
+        ended = np.flatnonzero(dones.numpy())  # the order of the episode log
+        if not len(ended):
+            continue
+        first = ~done[ended]
+        stood[ended[first]] = extras["log"]["episode/stood_up"].numpy()[first] > 0
+        done[ended] = True
+    return stood, pose

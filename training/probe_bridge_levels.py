@@ -1,0 +1,56 @@
+"""Deterministic, unassisted rises of runs' actors from each level of a start-pose bridge.
+
+For every level k = 0 … K of ``bridge.levels`` = K (k = K: the target pose itself), all
+envs start from the target's pose at that level, with the run's training settings
+otherwise and the assistance off; the share that stands up (CoM above 0.85 m, torso
+within 72°, for 1 s) says how hard each blend is for each actor.
+
+    python training/probe_bridge_levels.py runs/full_se runs/full_bridge --levels 8 --envs 64
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import torch
+
+from hybrid_recovery.training.export import actor_from_checkpoint
+from hybrid_recovery.training.probe import first_episodes, training_env
+
+
+def probe(run: Path, levels: int, num_envs: int, seed: int, source: str,
+          target: str) -> dict:
+    """Stand-up share of ``run``'s latest actor from each level of the bridge."""
+    env, data = training_env(run, num_envs, seed, {
+        "bridge.levels": levels, "bridge.source": source, "bridge.target": target,
+        "pose_weights": {target: 1.0}})
+    env.assist.fraction = 0.0
+    actor = actor_from_checkpoint(data)
+    shares = {}
+    for k in range(levels + 1):
+        env.bridge.level = k
+        stood, _ = first_episodes(env, actor)
+        shares[f"{k}/{levels}"] = round(float(stood.mean()), 3)
+    return {"run": str(run), "iteration": int(data["iter"]), "episodes": num_envs,
+            "stood_up_by_level": shares}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("runs", type=Path, nargs="+")
+    parser.add_argument("--levels", type=int, default=8)
+    parser.add_argument("--envs", type=int, default=64, help="episodes per level and run")
+    parser.add_argument("--source", default="half_kneeling")
+    parser.add_argument("--target", default="kneeling")
+    parser.add_argument("--seed", type=int, default=7)
+    args = parser.parse_args()
+    torch.set_num_threads(1)
+    for run in args.runs:
+        print(json.dumps(probe(run, args.levels, args.envs, args.seed, args.source,
+                               args.target)), flush=True)
+
+
+if __name__ == "__main__":
+    main()
