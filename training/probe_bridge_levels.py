@@ -24,13 +24,13 @@ def probe(run: Path, levels: int, num_envs: int, seed: int, source: str,
           target: str) -> dict:
     """Stand-up share of ``run``'s latest actor from each level of the bridge."""
     env, data = training_env(run, num_envs, seed, {
-        "bridge.levels": levels, "bridge.source": source, "bridge.target": target,
+        "bridge.levels": levels, "bridge.pairs": [[source, target]],
         "pose_weights": {target: 1.0}})
     env.assist.fraction = 0.0
     actor = actor_from_checkpoint(data)
     shares = {}
     for k in range(levels + 1):
-        env.bridge.level = k
+        env.bridge.level[target] = k
         stood, _ = first_episodes(env, actor)
         shares[f"{k}/{levels}"] = round(float(stood.mean()), 3)
     return {"run": str(run), "iteration": int(data["iter"]), "episodes": num_envs,

@@ -1,4 +1,4 @@
-"""Start-pose bridge: a target pose's episodes start from blends of an easier source pose
+"""Start-pose bridges: a target pose's episodes start from blends of an easier source pose
 and the target, moved toward the target as the stand-up rate allows (beyond the paper).
 
 The blend at level k of K is the pose with joint targets q(t) = (1 − t) q_source + t
@@ -31,62 +31,78 @@ def blend_pose(source: Pose, target: Pose, t: float) -> Pose:
 
 
 class PoseBridge:
-    """The bridge's level k ∈ {0, …, K}, advanced by the target's stand-up rate.
+    """One level k ∈ {0, …, K} per target pose, advanced by its stand-up rate.
 
     Args:
-        cfg: the bridge settings (``levels`` K = 0: off).
+        cfg: the bridges' settings (``levels`` K = 0: off).
     """
 
     def __init__(self, cfg: BridgeConfig) -> None:
-        for key in ("source", "target"):
-            if getattr(cfg, key) not in POSES:
-                raise ValueError(f"bridge.{key} '{getattr(cfg, key)}' is not a pose; "
-                                 f"known: {list(POSES)}")
-        if cfg.source == cfg.target:
-            raise ValueError(f"bridge.source and bridge.target are both '{cfg.source}'")
+        pairs = [tuple(p) for p in cfg.pairs]
+        for pair in pairs:
+            if len(pair) != 2 or not set(pair) <= set(POSES) or pair[0] == pair[1]:
+                raise ValueError(f"bridge.pairs needs (source, target) pairs of two "
+                                 f"different poses of {list(POSES)}; got {list(pair)}")
+        targets = [t for _, t in pairs]
+        if len(set(targets)) < len(targets):
+            raise ValueError(f"bridge.pairs has a target twice: {targets}")
         if cfg.levels < 0 or cfg.window < 1 or not 0.0 < cfg.advance <= 1.0:
             raise ValueError(f"bridge needs levels >= 0, window >= 1 and advance in (0, 1]; "
                              f"got {cfg.levels}, {cfg.window}, {cfg.advance}")
         self.cfg = cfg
-        self.level = 0
-        self.target_index = POSES.index(cfg.target)
-        self._outcomes: deque[bool] = deque(maxlen=cfg.window)
+        self.source = {t: s for s, t in pairs}
+        """Source pose by target pose."""
+        self.level = dict.fromkeys(targets, 0)
+        self._outcomes: dict[str, deque[bool]] = {t: deque(maxlen=cfg.window) for t in targets}
 
     @property
-    def active(self) -> bool:
-        """Whether the target's episodes still start from blends."""
-        return self.level < self.cfg.levels
+    def targets(self) -> tuple[str, ...]:
+        return tuple(self.level) if self.cfg.levels else ()
 
-    @property
-    def blend(self) -> float:
-        """t of the current starts: 0 (source) … 1 (the target itself)."""
-        return self.level / self.cfg.levels if self.cfg.levels else 1.0
+    def active(self, target: str) -> bool:
+        """Whether ``target``'s episodes still start from blends."""
+        return target in self.targets and self.level[target] < self.cfg.levels
+
+    def blend(self, target: str) -> float:
+        """t of ``target``'s current starts: 0 (the source) … 1 (the target itself)."""
+        return self.level[target] / self.cfg.levels if self.active(target) else 1.0
 
     def poses(self) -> dict[str, Pose]:
-        """The blends of levels 0 … K − 1, by :meth:`pool_name`."""
-        src, dst = POSE_LIBRARY[self.cfg.source], POSE_LIBRARY[self.cfg.target]
-        return {self.pool_name(k): blend_pose(src, dst, k / self.cfg.levels)
-                for k in range(self.cfg.levels)}
+        """The blends of levels 0 … K − 1 of every bridge, by :meth:`pool_name`."""
+        return {self.pool_name(t, k): blend_pose(POSE_LIBRARY[self.source[t]],
+                                                 POSE_LIBRARY[t], k / self.cfg.levels)
+                for t in self.targets for k in range(self.cfg.levels)}
 
-    def pool_name(self, level: int | None = None) -> str:
+    def pool_name(self, target: str, level: int | None = None) -> str:
         """Name of a level's blend (the current level's by default)."""
-        k = self.level if level is None else level
-        return f"{self.cfg.target}@{k}/{self.cfg.levels}"
+        k = self.level[target] if level is None else level
+        return f"{target}@{k}/{self.cfg.levels}"
 
-    def record(self, stood_up: np.ndarray) -> bool:
-        """Adds finished target episodes' outcomes; returns True when a level is earned."""
-        if not self.active:
+    def record(self, target: str, stood_up: np.ndarray) -> bool:
+        """Adds finished ``target`` episodes' outcomes; True when a level is earned."""
+        if not self.active(target):
             return False
-        self._outcomes.extend(bool(s) for s in np.atleast_1d(stood_up))
-        if len(self._outcomes) < self.cfg.window or np.mean(self._outcomes) < self.cfg.advance:
+        outcomes = self._outcomes[target]
+        outcomes.extend(bool(s) for s in np.atleast_1d(stood_up))
+        if len(outcomes) < self.cfg.window or np.mean(outcomes) < self.cfg.advance:
             return False
-        self._outcomes.clear()
-        self.level += 1
+        outcomes.clear()
+        self.level[target] += 1
         return True
 
     def state_dict(self) -> dict:
-        return {"level": self.level, "outcomes": list(self._outcomes)}
+        return {"level": dict(self.level),
+                "outcomes": {t: list(o) for t, o in self._outcomes.items()}}
 
     def load_state_dict(self, state: dict) -> None:
-        self.level = min(int(state["level"]), self.cfg.levels)
-        self._outcomes = deque(state.get("outcomes", []), maxlen=self.cfg.window)
+        """Restores the levels of the targets it names (of one bridge as
+        ``{"level": k}``, the first), keeping the others at 0."""
+        levels, outcomes = state["level"], state.get("outcomes", {})
+        if not isinstance(levels, dict):
+            first = next(iter(self.level))
+            levels, outcomes = {first: levels}, {first: outcomes or []}
+        for target, k in levels.items():
+            if target in self.level:
+                self.level[target] = min(int(k), self.cfg.levels)
+                self._outcomes[target] = deque(outcomes.get(target, []),
+                                               maxlen=self.cfg.window)

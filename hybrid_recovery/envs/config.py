@@ -235,26 +235,27 @@ class ReplayConfig:
 
 @dataclass
 class BridgeConfig:
-    """Start-pose bridge (beyond the paper; off by default), see
+    """Start-pose bridges (beyond the paper; off by default), see
     :mod:`hybrid_recovery.envs.bridge`.
 
-    Episodes drawn for ``target`` start instead from a blend of ``source`` and
-    ``target`` — joint angles and base pitch interpolated, settled like every pose — at
-    the bridge's level k / ``levels``, from 0 (the source pose) up; each time the stand-up
-    rate of the last ``window`` such episodes reaches ``advance`` the level rises by one,
-    and at ``levels`` the episodes start from the target pose itself. Why: from
-    ``half_kneeling`` 29–37 % of unassisted training episodes of the full run stood up
-    at 1× torque, from ``kneeling`` 3–4 % with a pull of 0.72 m g and none in a
-    deterministic probe without it (training/README.md); the blends are the states in
-    between, where the front foot comes forward.
+    For each (source, target) of ``pairs``, episodes drawn for the target start instead
+    from a blend of the two poses — joint angles and base pitch interpolated, settled
+    like every pose — at that bridge's level k / ``levels``, from 0 (the source pose) up;
+    each time the stand-up rate of the last ``window`` such episodes reaches ``advance``
+    the level rises by one, and at ``levels`` the episodes start from the target itself.
+    Why: from ``half_kneeling`` 29–37 % of unassisted training episodes of the full run
+    stood up at 1× torque, from ``kneeling`` 3–4 % with a pull of 0.72 m g, and none in
+    a deterministic probe without it (training/README.md); the blends are the states in
+    between, where the front foot comes forward. Sitting is 0.3 % with the pull, squatting
+    70–75 % unassisted: in between, the feet come under the body.
     """
 
     levels: int = 0
     """Steps from source to target; 0 = off (the paper)."""
-    source: str = "half_kneeling"
-    target: str = "kneeling"
+    pairs: tuple[tuple[str, str], ...] = (("half_kneeling", "kneeling"),)
+    """(source, target) start poses, one bridge each; the targets differ."""
     advance: float = 0.3
-    """Stand-up rate of the target's episodes over ``window`` that earns one level."""
+    """Stand-up rate of a target's episodes over ``window`` that earns its bridge a level."""
     window: int = 256
 
 

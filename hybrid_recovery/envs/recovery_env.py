@@ -335,9 +335,8 @@ class RecoveryEnv(VecEnv):
         for k, name in enumerate(POSES):
             rows = np.flatnonzero(poses == k)
             if len(rows):
-                bridged = k == self.bridge.target_index and self.bridge.active
-                pool = (self.bridge_pool[self.bridge.pool_name()] if bridged
-                        else self.pool[name])[0]
+                pool = (self.bridge_pool[self.bridge.pool_name(name)]
+                        if self.bridge.active(name) else self.pool[name])[0]
                 qpos[rows] = pool[rng.integers(len(pool), size=len(rows))]
         qpos = perturb_start(qpos, rng, dr.init_base_pos, dr.init_base_rot, dr.init_joint_pos,
                              self.qadr, self.model.jnt_range[1:1 + self.num_actions])
@@ -403,10 +402,10 @@ class RecoveryEnv(VecEnv):
                     self.stood_up[mine].astype(np.float32))
         if self.replay.active:
             log.update(self._replay_log(ids[~fresh]))
-        if self.cfg.bridge.levels:
-            self.bridge.record(self.stood_up[ids[(self.start_pose[ids] == self.bridge.target_index)
-                                                 & fresh]])
-            log["curriculum/bridge_blend"] = float(self.bridge.blend)
+        for target in self.bridge.targets:
+            mine = ids[(self._pose_names[self.start_pose[ids]] == target) & fresh]
+            self.bridge.record(target, self.stood_up[mine])
+            log[f"bridge_blend/{target}"] = float(self.bridge.blend(target))
         counted = self.stood_up if self.cfg.curriculum.advance_on == "stood_up" else self.succeeded
         gated = self.cfg.curriculum.advance_poses
         names = self._pose_names[self.start_pose[ids]]
