@@ -12,7 +12,7 @@ import torch
 
 from hybrid_recovery.deploy.stand_in import write_stand_in_policy
 from hybrid_recovery.observation import ACTOR_OBS_DIM
-from hybrid_recovery.policy import ACTION_CLIP, OnnxPolicy, joint_targets
+from hybrid_recovery.policy import ACTION_CLIP, TARGET_RANGE_FACTOR, OnnxPolicy, joint_targets
 from hybrid_recovery.robot import constants
 
 
@@ -107,3 +107,59 @@ def test_learned_controller_is_the_shipped_policy_and_says_when_there_is_none(mo
         make_controller("learned")
     with pytest.raises(FileNotFoundError, match="no policy is shipped"):
         shipped.resolve_policy("shipped")
+
+
+def _saturating(controller) -> None:
+    """Makes a controller's policy ask for a = +ACTION_CLIP on every joint."""
+    controller.policy = lambda obs: np.full(constants.NUM_JOINTS, ACTION_CLIP)
+
+
+@pytest.mark.parametrize("kind", ["position", "torque"])
+def test_controllers_clamp_targets_as_training_and_the_robot_do(export, kind):
+    """q* + 0.3 · 10 is beyond most joint ranges: the targets stop at the ranges scaled
+    about their middle by the policy's factor (0.9), as the training env's and the
+    safety layer's do."""
+    import mujoco
+
+    from hybrid_recovery.control.policy_controller import PolicyController
+    from hybrid_recovery.deploy.limits import SafetyLimits
+    from hybrid_recovery.deploy.state_machine import SafetyConfig
+    from hybrid_recovery.envs.config import CurriculumConfig
+    from hybrid_recovery.evaluation.controllers import OnnxPolicyController
+    from hybrid_recovery.robot.mjcf import load_mjmodel
+
+    policy = OnnxPolicy(export)
+    assert policy.target_range_factor == TARGET_RANGE_FACTOR == 0.9
+    assert CurriculumConfig().position_limit_final == SafetyConfig.q_ref_range_factor == 0.9
+    model = load_mjmodel(None)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    if kind == "position":
+        controller = OnnxPolicyController(export, delay=0.0)
+        controller.reset(model, data)
+        _saturating(controller)
+        target = controller(model, data)
+    else:
+        controller = PolicyController(policy)
+        controller.reset(model, data)
+        _saturating(controller)
+        target = controller.update_targets(model, data)
+    limits = SafetyLimits.from_model(model)
+    lo, hi = limits.q_ref_bounds(0.9)
+    unclamped = joint_targets(np.full(constants.NUM_JOINTS, ACTION_CLIP), 0.3)
+    np.testing.assert_allclose(target, np.minimum(unclamped, hi))
+    assert (target < limits.q_max).all() and (target < unclamped).sum() >= 20
+
+
+def test_a_description_without_the_factor_means_the_default(export, tmp_path):
+    import shutil
+
+    desc = json.loads((export / "policy.json").read_text())
+    desc["action"]["target_range_factor"] = 0.8
+    other = tmp_path / "other"
+    shutil.copytree(export, other)
+    (other / "policy.json").write_text(json.dumps(desc))
+    assert OnnxPolicy(other).target_range_factor == 0.8
+    del desc["action"]["target_range_factor"]  # descriptions written before it was kept
+    (other / "policy.json").write_text(json.dumps(desc))
+    assert OnnxPolicy(other).target_range_factor == TARGET_RANGE_FACTOR

@@ -74,6 +74,8 @@ def test_export_onnx_matches_torch(trained_run, tmp_path):
     out = export_policy(run, tmp_path / "export")
     desc = load_policy_description(out / "policy.json")
     assert desc["observation"]["dim"] == ACTOR_OBS_DIM and desc["action"]["scale"] == 0.3
+    assert desc["action"]["target_range_factor"] == make_env_config(
+        TrainConfig()).curriculum.position_limit_final
     record = json.loads((out / "training_record.json").read_text())
     iteration = load_checkpoint(run / "latest.pt")["iter"]  # earlier tests may resume it
     assert record["iteration"] == iteration and record["env_steps"] == (iteration + 1) * 24 * 8

@@ -2,8 +2,9 @@
 
 Every ``policy_dt`` the observation o_t = ``actor_observation(ω_IMU, q_IMU, q, q̇,
 a_{t−1})`` (the shared builder, on :func:`read_proprioception`) goes through the policy;
-the joint targets are q_ref = q* + 0.3 clip(a_t, ±10) (:func:`joint_targets`, as in
-training) and every physics step τ = clip(K_P (q_ref − q) − K_D q̇, ±τ_max)
+the joint targets are q_ref = q* + 0.3 clip(a_t, ±10) (:func:`joint_targets`), clamped
+to the joint ranges scaled about their middle by the policy's ``target_range_factor``
+(as in training and on the robot), and every physics step τ = clip(K_P (q_ref − q) − K_D q̇, ±τ_max)
 with ``constants.KP``/``KD`` — the law of the position servos of
 :func:`hybrid_recovery.robot.mjcf.load_mjmodel`, written out so that the policy runs on
 the torque model shared with the QP controller.
@@ -16,9 +17,10 @@ from collections.abc import Callable
 import mujoco
 import numpy as np
 
+from hybrid_recovery.deploy.limits import SafetyLimits
 from hybrid_recovery.observation import actor_observation
 from hybrid_recovery.observation.mujoco_source import ProprioceptionMap, read_proprioception
-from hybrid_recovery.policy.action import clip_action, joint_targets
+from hybrid_recovery.policy.action import TARGET_RANGE_FACTOR, clip_action, joint_targets
 from hybrid_recovery.robot import constants
 
 
@@ -47,6 +49,9 @@ class PolicyController:
         if policy_dt <= 0.0:
             raise ValueError("policy_dt must be > 0")
         self.policy, self.policy_dt, self.action_scale = policy, policy_dt, action_scale
+        self.target_range_factor = float(getattr(policy, "target_range_factor",
+                                                 TARGET_RANGE_FACTOR))
+        self._bounds: tuple[np.ndarray, np.ndarray] | None = None
         self.q_ref = constants.DEFAULT_JOINT_POS.copy()
         self.last_action = np.zeros(constants.NUM_JOINTS)
         self._next_time = -np.inf
@@ -55,6 +60,7 @@ class PolicyController:
     def reset(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         """Zero last action; the first action is taken at the next call."""
         self._where = ProprioceptionMap.of(model)
+        self._bounds = SafetyLimits.from_model(model).q_ref_bounds(self.target_range_factor)
         self.last_action = np.zeros(constants.NUM_JOINTS)
         self.q_ref = constants.DEFAULT_JOINT_POS.copy()
         self._next_time = -np.inf
@@ -74,7 +80,8 @@ class PolicyController:
             obs = actor_observation(gyro[None], quat[None], q[None], qd[None],
                                     self.last_action[None])[0]
             action = self.policy(obs)
-            self.q_ref = joint_targets(action, self.action_scale)
+            assert self._bounds is not None
+            self.q_ref = np.clip(joint_targets(action, self.action_scale), *self._bounds)
             self.last_action = clip_action(action)
             self._next_time = data.time + self.policy_dt
         return self.q_ref

@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import mujoco
 import numpy as np
 
 from hybrid_recovery.robot import constants
@@ -39,7 +40,11 @@ class SafetyLimits:
         """Joint ranges from an H1-2 MJCF (None: the project's), the rest from the constants."""
         from hybrid_recovery.robot.mjcf import load_mjmodel
 
-        model = load_mjmodel(mjcf, floor=False, actuators=False)
+        return cls.from_model(load_mjmodel(mjcf, floor=False, actuators=False))
+
+    @classmethod
+    def from_model(cls, model: mujoco.MjModel) -> SafetyLimits:
+        """Joint ranges from a MuJoCo model of the H1-2, the rest from the constants."""
         ranges = np.array([model.jnt_range[model.joint(n).id] for n in constants.JOINT_NAMES])
         return cls(q_min=ranges[:, 0].copy(), q_max=ranges[:, 1].copy())
 

@@ -31,6 +31,7 @@ import numpy as np
 
 from hybrid_recovery.deploy.limits import SafetyLimits
 from hybrid_recovery.deploy.robot_io import JointCommand, RobotState
+from hybrid_recovery.policy.action import TARGET_RANGE_FACTOR
 from hybrid_recovery.robot import constants
 
 _EPS = 1e-6  # [s]: a phase of 0.5 s ends on the tick at 0.5 s despite float rounding
@@ -96,7 +97,7 @@ class SafetyConfig:
     """Measured q may exceed the joint range by this much before it is a fault [rad]."""
     torque_tolerance: float = 0.1
     """Measured |τ| may exceed τ_max by this fraction before it is a fault."""
-    q_ref_range_factor: float = 0.9
+    q_ref_range_factor: float = TARGET_RANGE_FACTOR
     """Targets are clamped to the joint ranges scaled about their middle by this (as at
     the end of training's curriculum, ``CurriculumConfig.position_limit_final``)."""
     kp: np.ndarray = field(default_factory=lambda: constants.KP)

@@ -6,6 +6,8 @@ import dataclasses
 from dataclasses import dataclass, field
 from typing import Any
 
+from hybrid_recovery.policy.action import TARGET_RANGE_FACTOR
+
 
 @dataclass
 class RewardConfig:
@@ -147,7 +149,7 @@ class CurriculumConfig:
 
     enabled: bool = True
     torque_scale_explore: float = 10.0
-    position_limit_final: float = 0.9
+    position_limit_final: float = TARGET_RANGE_FACTOR
     advance_success: float = 0.6
     """Success rate of the last ``window`` episodes needed to advance one step."""
     advance_on: str = "stood_up"

@@ -14,6 +14,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from hybrid_recovery.deploy.limits import SafetyLimits
 from hybrid_recovery.observation import actor_observation
 from hybrid_recovery.observation.mujoco_source import ProprioceptionMap, read_proprioception
 from hybrid_recovery.policy import SHIPPED, OnnxPolicy, clip_action, joint_targets, resolve_policy
@@ -38,7 +39,15 @@ class ZeroController:
 
 
 class OnnxPolicyController:
-    """An exported policy at 50 Hz: shared observation builder, targets q* + s·clip(a), delay.
+    """An exported policy at 50 Hz: shared observation builder, targets q* + s·clip(a)
+    clamped as in training and on the robot, delay.
+
+    Training clamps the targets to the joint ranges scaled about their middle by the
+    curriculum's final position-limit factor, and the robot's safety layer does the same
+    (``SafetyConfig.q_ref_range_factor``); so does this controller, by the policy's
+    ``target_range_factor``. Without
+    the clamp, a policy that drives joints against the training bound (full_se 3050: the
+    knees in 91–96 % of standing steps) met a different robot here.
 
     Args:
         path: ``policy.onnx`` or the directory holding it and ``policy.json``.
@@ -58,6 +67,8 @@ class OnnxPolicyController:
 
     def reset(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         self.where = ProprioceptionMap.of(model)
+        self.bounds = SafetyLimits.from_model(model).q_ref_bounds(
+            self.policy.target_range_factor)
         self.decimation = max(1, int(round(self.period / model.opt.timestep)))
         self.delay_steps = int(round(self.delay / model.opt.timestep))
         self.step = 0
@@ -73,7 +84,8 @@ class OnnxPolicyController:
                                     self.last_action[None])[0]
             action = self.policy(obs)
             self.last_action = clip_action(action)
-            self.pending.append((self.step + self.delay_steps, joint_targets(action, self.scale)))
+            target = np.clip(joint_targets(action, self.scale), *self.bounds)
+            self.pending.append((self.step + self.delay_steps, target))
         while self.pending and self.pending[0][0] <= self.step:
             self.target = self.pending.popleft()[1]
         self.step += 1

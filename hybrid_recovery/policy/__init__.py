@@ -5,7 +5,12 @@ Control, evaluation, ``play`` and deploy all load and run a policy through
 too. Nothing here imports torch (onnxruntime is imported when a policy is loaded).
 """
 
-from hybrid_recovery.policy.action import ACTION_CLIP, clip_action, joint_targets
+from hybrid_recovery.policy.action import (
+    ACTION_CLIP,
+    TARGET_RANGE_FACTOR,
+    clip_action,
+    joint_targets,
+)
 from hybrid_recovery.policy.description import (
     POLICY_FORMAT,
     check_meta,
@@ -20,6 +25,7 @@ __all__ = [
     "OnnxPolicy",
     "SHIPPED",
     "SHIPPED_POLICY",
+    "TARGET_RANGE_FACTOR",
     "check_meta",
     "clip_action",
     "is_shipped",

@@ -13,6 +13,10 @@ from hybrid_recovery.robot.constants import DEFAULT_JOINT_POS
 
 ACTION_CLIP = 10.0
 """|a| bound applied to the policy output before the targets are formed."""
+TARGET_RANGE_FACTOR = 0.9
+"""Targets are clamped to the joint ranges scaled about their middle by this factor: at
+the end of training's curriculum (``CurriculumConfig.position_limit_final``), on the robot
+(``SafetyConfig.q_ref_range_factor``) and by the evaluation's policy controllers."""
 
 
 def clip_action(action: np.ndarray) -> np.ndarray:

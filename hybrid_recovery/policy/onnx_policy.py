@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from hybrid_recovery.observation import ACTOR_OBS_DIM
+from hybrid_recovery.policy.action import TARGET_RANGE_FACTOR
 from hybrid_recovery.policy.description import load_policy_description
 from hybrid_recovery.robot.constants import NUM_JOINTS
 
@@ -34,6 +35,9 @@ class OnnxPolicy:
         path: The ``.onnx`` file.
         description: ``policy.json``'s content (checked), or None when there is none.
         action_scale: s of q_ref = q* + s · a [rad] from the description, else None.
+        target_range_factor: the joint ranges scaled about their middle by this bounded
+            q_ref in training: the description's, else :data:`TARGET_RANGE_FACTOR`
+            (descriptions written before it was recorded; those runs used it).
 
     Raises:
         FileNotFoundError: No network, or no description where one is required.
@@ -54,6 +58,8 @@ class OnnxPolicy:
             self.description = load_policy_description(described)
         self.action_scale: float | None = (None if self.description is None
                                            else float(self.description["action"]["scale"]))
+        self.target_range_factor = float((self.description or {}).get("action", {}).get(
+            "target_range_factor", TARGET_RANGE_FACTOR))
         if not self.path.is_file():
             raise FileNotFoundError(f"ONNX policy not found: {self.path}")
         options = ort.SessionOptions()

@@ -43,7 +43,9 @@ def policy_description(meta: dict, env_steps: int | None, iteration: int | None)
                         "joint_pos": "q - default_joint_pos", "scaling": "none (the "
                         "normaliser is inside the ONNX graph)"},
         "action": {"dim": constants.NUM_JOINTS, "scale": env["action_scale"],
-                   "target": "q_ref = default_joint_pos + scale * action"},
+                   "target_range_factor": env["curriculum"]["position_limit_final"],
+                   "target": "q_ref = default_joint_pos + scale * action, clamped to the "
+                             "joint ranges scaled about their middle by target_range_factor"},
         "joint_names": list(constants.JOINT_NAMES),
         "default_joint_pos": constants.DEFAULT_JOINT_POS.tolist(),
         "kp": constants.KP.tolist(),
