@@ -106,6 +106,13 @@ def test_other_control_period_and_effort_limits_are_refused(exported, tmp_path):
     (out / "policy.json").write_text(json.dumps(desc))
     with pytest.raises(PolicyMismatchError, match="effort_limits differ from the robot constants"):
         PolicyRunner(out)
+    desc["effort_limits"][0] = constants.EFFORT_LIMITS[0]
+    desc["action"]["target_range_factor"] = 0.8
+    (out / "policy.json").write_text(json.dumps(desc))
+    with pytest.raises(PolicyMismatchError, match=r"joint ranges × 0.8 in training, the "
+                                                  r"safety layer clamps them to × 0.9"):
+        PolicyRunner(out)
+    assert PolicyRunner(out, target_range_factor=0.8).policy.target_range_factor == 0.8
 
 
 def test_missing_files_are_named(tmp_path):

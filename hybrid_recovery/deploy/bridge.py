@@ -69,8 +69,8 @@ def run_controller(policy_dir: str | Path, domain_id: int = 0, interface: str = 
         PolicyMismatchError: the policy does not match the robot (checked first).
         TimeoutError: no state arrived within ``wait_timeout_s``.
     """
-    runner = PolicyRunner(policy_dir)
     sm = SafetyStateMachine(safety or SafetyConfig(SafetyLimits.from_robot()))
+    runner = PolicyRunner(policy_dir, target_range_factor=sm.config.q_ref_range_factor)
     link = FastLink(domain_id, interface, "controller")
     scheduling = try_realtime() if realtime else "normal"
     if link.wait_for(wait_timeout_s) is None and link.latest() is None:

@@ -20,7 +20,13 @@ import numpy as np
 from hybrid_recovery.deploy.robot_io import RobotState
 from hybrid_recovery.deploy.state_machine import PolicyOutput
 from hybrid_recovery.observation import actor_observation
-from hybrid_recovery.policy import ACTION_CLIP, OnnxPolicy, clip_action, joint_targets
+from hybrid_recovery.policy import (
+    ACTION_CLIP,
+    TARGET_RANGE_FACTOR,
+    OnnxPolicy,
+    clip_action,
+    joint_targets,
+)
 from hybrid_recovery.robot import constants
 
 __all__ = ["ACTION_CLIP", "PolicyMismatchError", "PolicyRunner"]
@@ -37,6 +43,8 @@ class PolicyRunner:
         policy_dir: Directory with ``policy.onnx`` and ``policy.json`` (from ``export``).
         period_s: This runner's control period [s]; must equal the policy's.
         threads: onnxruntime intra-op threads (1 keeps the loop's timing predictable).
+        target_range_factor: the factor of the joint ranges the safety layer clamps the
+            targets to (``SafetyConfig.q_ref_range_factor``); must equal the policy's.
 
     Raises:
         FileNotFoundError: ``policy.json`` or ``policy.onnx`` is missing.
@@ -44,7 +52,8 @@ class PolicyRunner:
             constants, the observation layout or the control period.
     """
 
-    def __init__(self, policy_dir: str | Path, period_s: float = 0.02, threads: int = 1) -> None:
+    def __init__(self, policy_dir: str | Path, period_s: float = 0.02, threads: int = 1,
+                 target_range_factor: float = TARGET_RANGE_FACTOR) -> None:
         self.policy_dir = policy_dir = Path(policy_dir)
         try:
             self.policy = OnnxPolicy(policy_dir / "policy.onnx", threads,
@@ -58,6 +67,10 @@ class PolicyRunner:
         self._refuse_unless(abs(desc["control_period_s"] - period_s) < 1e-9,
                             f"it was trained at a control period of {desc['control_period_s']} "
                             f"s, this runner runs at {period_s} s")
+        self._refuse_unless(abs(self.policy.target_range_factor - target_range_factor) < 1e-9,
+                            f"its targets were clamped to the joint ranges × "
+                            f"{self.policy.target_range_factor} in training, the safety layer "
+                            f"clamps them to × {target_range_factor}")
         self.description = desc
         self.action_scale = self.policy.action_scale
         self.last_action = np.zeros(constants.NUM_JOINTS)
