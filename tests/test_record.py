@@ -124,3 +124,9 @@ def test_curves_draw_the_chosen_panels(tmp_path, monkeypatch):
     out = plot_curves(tmp_path, tmp_path / "chosen.png", curves=chosen, by_pose=False)
     assert out.stat().st_size > 10_000
     assert titles == ["supine", "reward", "success"]  # in order; none for a missing tag
+    drawn = []
+    monkeypatch.setattr(record_module, "_draw",
+                        lambda ax, scalar, *a, **k: drawn.append(scalar[0]))
+    plot_curves(tmp_path, tmp_path / "window.png", curves=chosen, by_pose=False,
+                since=55, upto=70)
+    assert [(s.min(), s.max()) for s in drawn] == [(55, 69), (55, 70), (55, 70)]

@@ -117,7 +117,8 @@ def _draw(ax, scalar: tuple[np.ndarray, np.ndarray], per_iteration: int, **style
 
 def plot_curves(runs: str | Path | Mapping[str, str | Path], out: str | Path,
                 title: str | None = None, upto: int | None = None,
-                curves: Sequence[tuple[str, str]] = CURVES, by_pose: bool = True) -> Path:
+                curves: Sequence[tuple[str, str]] = CURVES, by_pose: bool = True,
+                since: int | None = None) -> Path:
     """Writes learning curves against env steps as a PNG.
 
     Args:
@@ -125,6 +126,7 @@ def plot_curves(runs: str | Path | Mapping[str, str | Path], out: str | Path,
         out: the PNG path.
         title: figure title (default: the runs and their sizes).
         upto: draw iterations ≤ upto only (an exported checkpoint's curves).
+        since: draw iterations ≥ since only (forks of a run, from the fork on).
         curves: (TensorBoard tag, panel title) of each panel (default :data:`CURVES`).
         by_pose: add a last panel with the first run's stood-up rates by start pose.
     """
@@ -148,9 +150,10 @@ def plot_curves(runs: str | Path | Mapping[str, str | Path], out: str | Path,
     sizes = []
     for index, (name, run_dir) in enumerate(runs.items()):
         scalars = read_scalars(run_dir)
-        if upto is not None:
-            scalars = {tag: (steps[steps <= upto], values[steps <= upto])
-                       for tag, (steps, values) in scalars.items()}
+        lo, hi = -np.inf if since is None else since, np.inf if upto is None else upto
+        scalars = {tag: (steps[(steps >= lo) & (steps <= hi)],
+                         values[(steps >= lo) & (steps <= hi)])
+                   for tag, (steps, values) in scalars.items()}
         meta = json.loads((Path(run_dir) / "config.json").read_text())
         config = meta["train_config"]
         per_iteration = config["num_envs"] * config["num_steps_per_env"]
@@ -167,7 +170,7 @@ def plot_curves(runs: str | Path | Mapping[str, str | Path], out: str | Path,
                 _draw(last, scalars[tag], per_iteration, label=tag.split("/")[1],
                       color=f"C{k}")
         for number, amendment in enumerate(meta.get("amendments", []), 1):
-            if upto is not None and amendment["iteration"] > upto:
+            if not lo <= amendment["iteration"] <= hi:
                 continue
             x = amendment["iteration"] * per_iteration / 1e6
             for ax in axes.flat[:len(panels)]:
