@@ -63,6 +63,29 @@ def test_a_level_is_earned_by_the_stand_up_rate_of_a_full_window():
     assert not bridge.record("sitting", np.array([True] * 8))      # not a bridged pose
 
 
+def test_a_bridge_steps_back_below_the_retreat_rate_but_not_below_the_source():
+    bridge = PoseBridge(BridgeConfig(levels=4, advance=0.5, retreat=0.2, window=4))
+    assert bridge.record("kneeling", np.array([False] * 4)) == 0  # already at the source
+    bridge.level["kneeling"] = 2
+    assert bridge.record("kneeling", np.array([True, False, False, False])) == 0  # 0.25
+    assert bridge.record("kneeling", np.array([False])) == -1     # last 4: 0.0 < 0.2
+    assert bridge.level["kneeling"] == 1
+    assert bridge.record("kneeling", np.array([True, True, False, False])) == 1
+    assert bridge.level["kneeling"] == 2
+
+
+def test_a_state_saved_with_other_levels_keeps_its_blend():
+    eight = PoseBridge(BridgeConfig(levels=8, pairs=TWO))
+    eight.level.update(kneeling=3, sitting=8)
+    sixteen = PoseBridge(BridgeConfig(levels=16, pairs=TWO))
+    sixteen.load_state_dict(eight.state_dict())
+    assert sixteen.level == {"kneeling": 6, "sitting": 16}
+    assert sixteen.blend("kneeling") == eight.blend("kneeling") == 0.375
+    four = PoseBridge(BridgeConfig(levels=4, pairs=TWO))
+    four.load_state_dict(eight.state_dict())
+    assert four.level == {"kneeling": 1, "sitting": 4}  # at or below 3/8
+
+
 def test_bridges_advance_apart_and_their_levels_are_restored():
     bridge = PoseBridge(BridgeConfig(levels=3, advance=0.5, window=2, pairs=TWO))
     bridge.record("sitting", np.array([True, True]))
@@ -82,7 +105,8 @@ def test_bridges_advance_apart_and_their_levels_are_restored():
                                  {"pairs": (("kneeling", "kneeling"),)},
                                  {"pairs": (("squatting", "sitting"), ("supine", "sitting"))},
                                  {"pairs": (("squatting",),)},
-                                 {"levels": -1}, {"window": 0}, {"advance": 0.0}])
+                                 {"levels": -1}, {"window": 0}, {"advance": 0.0},
+                                 {"retreat": 0.3}, {"retreat": -0.1}])
 def test_bad_settings_are_refused(bad):
     with pytest.raises(ValueError, match="bridge"):
         PoseBridge(BridgeConfig(**bad))

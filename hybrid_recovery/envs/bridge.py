@@ -31,7 +31,8 @@ def blend_pose(source: Pose, target: Pose, t: float) -> Pose:
 
 
 class PoseBridge:
-    """One level k ∈ {0, …, K} per target pose, advanced by its stand-up rate.
+    """One level k ∈ {0, …, K} per target pose, moved by its stand-up rate: up one at
+    ``advance`` or more over a full window, down one below ``retreat``.
 
     Args:
         cfg: the bridges' settings (``levels`` K = 0: off).
@@ -46,9 +47,10 @@ class PoseBridge:
         targets = [t for _, t in pairs]
         if len(set(targets)) < len(targets):
             raise ValueError(f"bridge.pairs has a target twice: {targets}")
-        if cfg.levels < 0 or cfg.window < 1 or not 0.0 < cfg.advance <= 1.0:
-            raise ValueError(f"bridge needs levels >= 0, window >= 1 and advance in (0, 1]; "
-                             f"got {cfg.levels}, {cfg.window}, {cfg.advance}")
+        if cfg.levels < 0 or cfg.window < 1 or not 0.0 <= cfg.retreat < cfg.advance <= 1.0:
+            raise ValueError(f"bridge needs levels >= 0, window >= 1 and 0 <= retreat < "
+                             f"advance <= 1; got {cfg.levels}, {cfg.window}, {cfg.retreat}, "
+                             f"{cfg.advance}")
         self.cfg = cfg
         self.source = {t: s for s, t in pairs}
         """Source pose by target pose."""
@@ -78,31 +80,41 @@ class PoseBridge:
         k = self.level[target] if level is None else level
         return f"{target}@{k}/{self.cfg.levels}"
 
-    def record(self, target: str, stood_up: np.ndarray) -> bool:
-        """Adds finished ``target`` episodes' outcomes; True when a level is earned."""
+    def record(self, target: str, stood_up: np.ndarray) -> int:
+        """Adds finished ``target`` episodes' outcomes; returns the level's change (+1 when
+        one is earned, −1 on a retreat, else 0)."""
         if not self.active(target):
-            return False
+            return 0
         outcomes = self._outcomes[target]
         outcomes.extend(bool(s) for s in np.atleast_1d(stood_up))
-        if len(outcomes) < self.cfg.window or np.mean(outcomes) < self.cfg.advance:
-            return False
-        outcomes.clear()
-        self.level[target] += 1
-        return True
+        if len(outcomes) < self.cfg.window:
+            return 0
+        rate = np.mean(outcomes)
+        step = 1 if rate >= self.cfg.advance else \
+            -1 if rate < self.cfg.retreat and self.level[target] > 0 else 0
+        if step:
+            outcomes.clear()
+            self.level[target] += step
+        return step
 
     def state_dict(self) -> dict:
-        return {"level": dict(self.level),
+        return {"level": dict(self.level), "levels": self.cfg.levels,
                 "outcomes": {t: list(o) for t, o in self._outcomes.items()}}
 
     def load_state_dict(self, state: dict) -> None:
         """Restores the levels of the targets it names (of one bridge as
-        ``{"level": k}``, the first), keeping the others at 0."""
+        ``{"level": k}``, the first), keeping the others at 0. Saved with another number
+        of levels K', a level k' becomes the nearest level at or below the same blend
+        k'/K' (the window starts afresh)."""
         levels, outcomes = state["level"], state.get("outcomes", {})
         if not isinstance(levels, dict):
             first = next(iter(self.level))
             levels, outcomes = {first: levels}, {first: outcomes or []}
+        saved = int(state.get("levels", self.cfg.levels))
         for target, k in levels.items():
-            if target in self.level:
-                self.level[target] = min(int(k), self.cfg.levels)
-                self._outcomes[target] = deque(outcomes.get(target, []),
-                                               maxlen=self.cfg.window)
+            if target not in self.level:
+                continue
+            if saved != self.cfg.levels and saved > 0:
+                k, outcomes = int(k) * self.cfg.levels // saved, {}
+            self.level[target] = min(int(k), self.cfg.levels)
+            self._outcomes[target] = deque(outcomes.get(target, []), maxlen=self.cfg.window)

@@ -258,6 +258,11 @@ class BridgeConfig:
     """(source, target) start poses, one bridge each; the targets differ."""
     advance: float = 0.3
     """Stand-up rate of a target's episodes over ``window`` that earns its bridge a level."""
+    retreat: float = 0.0
+    """Stand-up rate over ``window`` below which the bridge steps back a level (0: never),
+    so that its starts stay where rises are still found. Why: at advance 0.3, the full
+    run's fork stalled 200 iterations at kneeling 3/8 (3–6 % stood up) and sitting 4/8
+    (0 %), where 2/8 and 3/8 had passed 0.3."""
     window: int = 256
 
 
