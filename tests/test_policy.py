@@ -27,6 +27,8 @@ def test_joint_targets_clip_then_scale():
     np.testing.assert_array_equal(joint_targets(action, 0.3), expected)
     batch = joint_targets(np.stack([action, -action]), 0.3)
     np.testing.assert_array_equal(batch[1], joint_targets(-action, 0.3))
+    lo, hi = expected - 0.1, expected - 0.05  # below every unclamped target
+    np.testing.assert_array_equal(joint_targets(action, 0.3, (lo, hi)), hi)
 
 
 def test_directory_or_file_with_its_description_and_batch_equals_rows(export):

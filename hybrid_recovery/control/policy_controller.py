@@ -80,8 +80,7 @@ class PolicyController:
             obs = actor_observation(gyro[None], quat[None], q[None], qd[None],
                                     self.last_action[None])[0]
             action = self.policy(obs)
-            assert self._bounds is not None
-            self.q_ref = np.clip(joint_targets(action, self.action_scale), *self._bounds)
+            self.q_ref = joint_targets(action, self.action_scale, self._bounds)
             self.last_action = clip_action(action)
             self._next_time = data.time + self.policy_dt
         return self.q_ref

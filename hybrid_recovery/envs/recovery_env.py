@@ -147,10 +147,10 @@ class RecoveryEnv(VecEnv):
     def step(self, actions: torch.Tensor) -> tuple[TensorDict, torch.Tensor, torch.Tensor, dict]:
         self.last_action = self.action
         self.action = clip_action(actions.detach().cpu().numpy())
-        targets = joint_targets(self.action, self.cfg.action_scale)
         lo_hi = self.randomizer.jnt_range[:, 1:1 + self.num_actions]
-        targets = np.clip(targets, lo_hi[..., 0], lo_hi[..., 1])
-        self.ctrl[:] = targets  # applied delay_steps substeps late by MuJoCo
+        # within this episode's (scaled) joint ranges, applied delay_steps substeps late
+        self.ctrl[:] = joint_targets(self.action, self.cfg.action_scale,
+                                     (lo_hi[..., 0], lo_hi[..., 1]))
         self.xfrc[:, self.torso, :3] = self.pushes.force(self.upright_time, self.rng,
                                                        self.curriculum.difficulty)
         helped = self.assist.assisted(self._pose_names)[self.start_pose]  # 7 names, not N
@@ -393,6 +393,7 @@ class RecoveryEnv(VecEnv):
         log["episode/success"] = torch.from_numpy(self.succeeded[ids].astype(np.float32))
         log["episode/stood_up"] = torch.from_numpy(self.stood_up[ids].astype(np.float32))
         fresh = ~self.replayed[ids]  # replayed starts: logged apart, counted for nothing
+        names = self._pose_names[self.start_pose[ids]]
         for k, pose in enumerate(POSES):  # by start pose, only when such episodes ended
             mine = ids[(self.start_pose[ids] == k) & fresh]
             if len(mine):
@@ -403,12 +404,11 @@ class RecoveryEnv(VecEnv):
         if self.replay.active:
             log.update(self._replay_log(ids[~fresh]))
         for target in self.bridge.targets:
-            mine = ids[(self._pose_names[self.start_pose[ids]] == target) & fresh]
+            mine = ids[(names == target) & fresh]
             self.bridge.record(target, self.stood_up[mine])
             log[f"bridge_blend/{target}"] = float(self.bridge.blend(target))
         counted = self.stood_up if self.cfg.curriculum.advance_on == "stood_up" else self.succeeded
         gated = self.cfg.curriculum.advance_poses
-        names = self._pose_names[self.start_pose[ids]]
         scored = np.ones(len(ids), dtype=bool) if gated is None else np.isin(names, gated)
         scored &= fresh
         log["episode/final_com_height"] = torch.from_numpy(self._state["height"][ids])

@@ -84,8 +84,8 @@ class OnnxPolicyController:
                                     self.last_action[None])[0]
             action = self.policy(obs)
             self.last_action = clip_action(action)
-            target = np.clip(joint_targets(action, self.scale), *self.bounds)
-            self.pending.append((self.step + self.delay_steps, target))
+            self.pending.append((self.step + self.delay_steps,
+                                 joint_targets(action, self.scale, self.bounds)))
         while self.pending and self.pending[0][0] <= self.step:
             self.target = self.pending.popleft()[1]
         self.step += 1

@@ -24,14 +24,18 @@ def clip_action(action: np.ndarray) -> np.ndarray:
     return np.clip(np.asarray(action, dtype=float), -ACTION_CLIP, ACTION_CLIP)
 
 
-def joint_targets(action: np.ndarray, scale: float) -> np.ndarray:
-    """q_ref = q* + s · clip(a, ±ACTION_CLIP).
+def joint_targets(action: np.ndarray, scale: float,
+                  bounds: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    """q_ref = q* + s · clip(a, ±ACTION_CLIP), clamped to ``bounds`` where given.
 
     Args:
         action: a_t (unscaled policy output), shape (..., 27).
         scale: s, the action scale [rad] (``policy.json``'s ``action.scale``, 0.3).
+        bounds: (lower, upper) joint targets [rad], broadcast against q_ref: the joint
+            ranges scaled by :data:`TARGET_RANGE_FACTOR` (or training's current factor).
 
     Returns:
         q_ref, shape (..., 27) [rad], motor order.
     """
-    return DEFAULT_JOINT_POS + scale * clip_action(action)
+    q_ref = DEFAULT_JOINT_POS + scale * clip_action(action)
+    return q_ref if bounds is None else np.clip(q_ref, *bounds)
