@@ -100,13 +100,32 @@ def test_bridges_advance_apart_and_their_levels_are_restored():
     assert old.level == {"kneeling": 2, "sitting": 0}
 
 
+def test_mixed_starts_go_below_the_level_and_only_the_current_level_counts():
+    bridge = PoseBridge(BridgeConfig(levels=8, advance=0.5, window=4, mix=0.5))
+    rng = np.random.default_rng(0)
+    assert (bridge.draw_levels("kneeling", 50, rng) == 0).all()  # nothing below the source
+    bridge.level["kneeling"] = 4
+    levels = bridge.draw_levels("kneeling", 4000, rng)
+    assert set(levels) == {0, 1, 2, 3, 4}
+    assert abs(np.mean(levels == 4) - 0.5) < 0.03           # 1 − mix at the current level
+    assert np.ptp(np.bincount(levels)[:4]) < 100              # the rest uniform below it
+    unmixed = PoseBridge(BridgeConfig(levels=8))
+    unmixed.level["kneeling"] = 4
+    assert (unmixed.draw_levels("kneeling", 50, rng) == 4).all()
+    # rises from lower levels earn nothing: 4 of the current level's are needed
+    assert not bridge.record("kneeling", np.ones(6, bool), np.array([0, 1, 2, 3, 4, 4]))
+    assert bridge.record("kneeling", np.ones(3, bool), np.array([4, 4, 3]))
+    assert bridge.level["kneeling"] == 5
+
+
 @pytest.mark.parametrize("bad", [{"pairs": (("crouching", "kneeling"),)},
                                  {"pairs": (("squatting", "lying"),)},
                                  {"pairs": (("kneeling", "kneeling"),)},
                                  {"pairs": (("squatting", "sitting"), ("supine", "sitting"))},
                                  {"pairs": (("squatting",),)},
                                  {"levels": -1}, {"window": 0}, {"advance": 0.0},
-                                 {"retreat": 0.3}, {"retreat": -0.1}])
+                                 {"retreat": 0.3}, {"retreat": -0.1}, {"mix": 1.0},
+                                 {"mix": -0.1}])
 def test_bad_settings_are_refused(bad):
     with pytest.raises(ValueError, match="bridge"):
         PoseBridge(BridgeConfig(**bad))
@@ -141,6 +160,23 @@ def test_the_targets_episodes_start_from_the_current_blend(env):
     assert (_front_hip(env) > -0.6).all()
     assert set(env.bridge_pool) == {"kneeling@0/2", "kneeling@1/2", "sitting@0/2",
                                     "sitting@1/2"}
+
+
+def test_mixed_starts_come_from_the_lower_levels_pools(env):
+    ids = np.arange(env.num_envs)
+    env.bridge.cfg.mix = 0.5
+    try:
+        env.bridge.level["kneeling"] = 2  # the kneel itself: the bridge is done, not mixed
+        env._reset(ids)
+        assert (env.start_level == -1).all()
+        env.bridge.level["kneeling"] = 1
+        env._reset(ids)
+        low = env.start_level == 0
+        assert set(env.start_level) == {0, 1}
+        assert (_front_hip(env)[low] < -1.1).all()  # from the half-kneel
+        assert ((_front_hip(env)[~low] > -1.1) & (_front_hip(env)[~low] < -0.2)).all()
+    finally:
+        env.bridge.cfg.mix = 0.0
 
 
 def test_finished_target_episodes_advance_the_bridge(env):

@@ -47,10 +47,11 @@ class PoseBridge:
         targets = [t for _, t in pairs]
         if len(set(targets)) < len(targets):
             raise ValueError(f"bridge.pairs has a target twice: {targets}")
-        if cfg.levels < 0 or cfg.window < 1 or not 0.0 <= cfg.retreat < cfg.advance <= 1.0:
-            raise ValueError(f"bridge needs levels >= 0, window >= 1 and 0 <= retreat < "
-                             f"advance <= 1; got {cfg.levels}, {cfg.window}, {cfg.retreat}, "
-                             f"{cfg.advance}")
+        if (cfg.levels < 0 or cfg.window < 1 or not 0.0 <= cfg.retreat < cfg.advance <= 1.0
+                or not 0.0 <= cfg.mix < 1.0):
+            raise ValueError(f"bridge needs levels >= 0, window >= 1, 0 <= retreat < "
+                             f"advance <= 1 and 0 <= mix < 1; got {cfg.levels}, {cfg.window}, "
+                             f"{cfg.retreat}, {cfg.advance}, {cfg.mix}")
         self.cfg = cfg
         self.source = {t: s for s, t in pairs}
         """Source pose by target pose."""
@@ -69,6 +70,16 @@ class PoseBridge:
         """t of ``target``'s current starts: 0 (the source) … 1 (the target itself)."""
         return self.level[target] / self.cfg.levels if self.active(target) else 1.0
 
+    def draw_levels(self, target: str, count: int, rng: np.random.Generator) -> np.ndarray:
+        """Levels of ``count`` new starts of an active ``target``: the current level k, or
+        with probability ``mix`` (when k > 0) one of 0 … k − 1 uniformly, (count,) int."""
+        k = self.level[target]
+        levels = np.full(count, k)
+        if k > 0 and self.cfg.mix > 0.0:
+            below = rng.random(count) < self.cfg.mix
+            levels[below] = rng.integers(k, size=int(below.sum()))
+        return levels
+
     def poses(self) -> dict[str, Pose]:
         """The blends of levels 0 … K − 1 of every bridge, by :meth:`pool_name`."""
         return {self.pool_name(t, k): blend_pose(POSE_LIBRARY[self.source[t]],
@@ -80,13 +91,17 @@ class PoseBridge:
         k = self.level[target] if level is None else level
         return f"{target}@{k}/{self.cfg.levels}"
 
-    def record(self, target: str, stood_up: np.ndarray) -> int:
-        """Adds finished ``target`` episodes' outcomes; returns the level's change (+1 when
+    def record(self, target: str, stood_up: np.ndarray, levels: np.ndarray | None = None) -> int:
+        """Adds finished ``target`` episodes' outcomes, of those that started at the current
+        level when their start ``levels`` are given; returns the level's change (+1 when
         one is earned, −1 on a retreat, else 0)."""
         if not self.active(target):
             return 0
+        stood_up = np.atleast_1d(stood_up)
+        if levels is not None:
+            stood_up = stood_up[np.atleast_1d(levels) == self.level[target]]
         outcomes = self._outcomes[target]
-        outcomes.extend(bool(s) for s in np.atleast_1d(stood_up))
+        outcomes.extend(bool(s) for s in stood_up)
         if len(outcomes) < self.cfg.window:
             return 0
         rate = np.mean(outcomes)

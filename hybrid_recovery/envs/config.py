@@ -264,6 +264,12 @@ class BridgeConfig:
     run's fork stalled 200 iterations at kneeling 3/8 (3–6 % stood up) and sitting 4/8
     (0 %), where 2/8 and 3/8 had passed 0.3."""
     window: int = 256
+    mix: float = 0.0
+    """Fraction of a bridge's starts drawn uniformly from its levels below the current one
+    (0: all at the current level); only starts at the current level count toward its
+    window. Why: at levels 16, the full_bridge fork oscillated 300 iterations between
+    kneeling 4/16 and 6/16 and sitting 4/16 and 7/16, the rises of the levels it had
+    passed no longer trained."""
 
 
 @dataclass

@@ -111,6 +111,8 @@ class RecoveryEnv(VecEnv):
         self.up_time = np.zeros(n)
         self.stood_up = np.zeros(n, dtype=bool)
         self.start_pose = np.zeros(n, dtype=int)
+        self.start_level = np.full(n, -1)
+        """Bridge level of each episode's start (−1: not a blend), (N,) int."""
         """Index into ``POSES`` of each env's episode start."""
         self.replayed = np.zeros(n, dtype=bool)
         """Episodes that started from a replayed state (:mod:`~.replay`)."""
@@ -332,12 +334,20 @@ class RecoveryEnv(VecEnv):
         n, dr, rng = len(ids), self.cfg.domain_rand, self.rng
         poses = self._sample_poses(n)
         qpos = np.empty((n, self.model.nq))
+        levels = np.full(n, -1)
         for k, name in enumerate(POSES):
             rows = np.flatnonzero(poses == k)
-            if len(rows):
-                pool = (self.bridge_pool[self.bridge.pool_name(name)]
-                        if self.bridge.active(name) else self.pool[name])[0]
+            if not len(rows):
+                continue
+            if not self.bridge.active(name):
+                pool = self.pool[name][0]
                 qpos[rows] = pool[rng.integers(len(pool), size=len(rows))]
+                continue
+            levels[rows] = self.bridge.draw_levels(name, len(rows), rng)
+            for level in np.unique(levels[rows]):
+                at = rows[levels[rows] == level]
+                pool = self.bridge_pool[self.bridge.pool_name(name, int(level))][0]
+                qpos[at] = pool[rng.integers(len(pool), size=len(at))]
         qpos = perturb_start(qpos, rng, dr.init_base_pos, dr.init_base_rot, dr.init_joint_pos,
                              self.qadr, self.model.jnt_range[1:1 + self.num_actions])
         replayed = self.replay.draw(n, rng)
@@ -345,7 +355,8 @@ class RecoveryEnv(VecEnv):
         if replayed.any():  # a state along an earlier rise, as it was (moving)
             qpos[replayed], qvel[replayed], poses[replayed] = self.replay.sample(
                 int(replayed.sum()), rng)
-        self.start_pose[ids], self.replayed[ids] = poses, replayed
+        levels[replayed] = -1
+        self.start_pose[ids], self.start_level[ids], self.replayed[ids] = poses, levels, replayed
         self.replay.clear(ids)
         self.randomizer.set_limits(ids, self.curriculum.torque_scale,
                                    self.curriculum.position_limit_factor)
@@ -405,7 +416,7 @@ class RecoveryEnv(VecEnv):
             log.update(self._replay_log(ids[~fresh]))
         for target in self.bridge.targets:
             mine = ids[(names == target) & fresh]
-            self.bridge.record(target, self.stood_up[mine])
+            self.bridge.record(target, self.stood_up[mine], self.start_level[mine])
             log[f"bridge_blend/{target}"] = float(self.bridge.blend(target))
         counted = self.stood_up if self.cfg.curriculum.advance_on == "stood_up" else self.succeeded
         gated = self.cfg.curriculum.advance_poses
