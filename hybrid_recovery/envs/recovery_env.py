@@ -114,9 +114,10 @@ class RecoveryEnv(VecEnv):
         """Index into ``POSES`` of each env's episode start."""
         self.start_level = np.full(n, -1)
         """Bridge level of each episode's start (−1: not a blend), (N,) int."""
-        self.counted = np.ones(n, dtype=bool)
-        """Episodes whose outcome is logged and counted (False: cut short by
-        :meth:`stagger`), (N,) bool."""
+        self._bridge_counted = np.zeros(n, dtype=bool)
+        self._window_counted = np.zeros(n, dtype=bool)
+        """Episodes whose outcome the bridges / the curriculum and assistance windows have
+        counted (:meth:`_count_bridges`, :meth:`_count_windows`), (N,) bool."""
         self.replayed = np.zeros(n, dtype=bool)
         """Episodes that started from a replayed state (:mod:`~.replay`)."""
         self._pose_names = np.asarray(POSES)
@@ -192,32 +193,18 @@ class RecoveryEnv(VecEnv):
             rose = np.flatnonzero((self.up_time >= 1.0) & ~self.stood_up & self._recording())
             self.replay.harvest(rose, self.start_pose[rose], self.cfg.upright_height)
         self.stood_up |= self.up_time >= 1.0
+        self._count_bridges(np.flatnonzero(self.stood_up & ~self._bridge_counted))
+        self._count_windows(np.flatnonzero(self._window_outcome() & ~self._window_counted))
         done = terminated | time_out
         extras = {"time_outs": torch.from_numpy(time_out), "log": {}}
         ids = np.flatnonzero(done)
         if len(ids):
-            logged = ids[self.counted[ids]]
-            if len(logged):
-                extras["log"] = self._episode_log(logged, dones_by)
+            extras["log"] = self._episode_log(ids, dones_by)
             self._reset(ids)
             self._read_state(ids)
         self._obs = self._observations()
         return (self._obs, torch.from_numpy(reward.astype(np.float32)),
                 torch.from_numpy(done), extras)
-
-    def stagger(self) -> None:
-        """Spreads the running episodes over the episode length T: each is given a random
-        elapsed time in [0, T), so that they end, and start again, at different times.
-
-        Their outcomes (most cut short by the timeout) are neither logged nor counted by
-        the curriculum, the assistance or the bridges; every later episode is. Why: from
-        a fresh env every episode starts at once and the failures end first; resumed
-        runs fell from a mean reward of ~58 to ~6 over the next 25 iterations and their
-        bridges stepped back (full_bridge 5/16 → 4/16, training/README.md).
-        """
-        self.episode_length_buf[:] = torch.from_numpy(
-            self.rng.integers(0, self.max_episode_length, self.num_envs))
-        self.counted[:] = False
 
     # ------------------------------------------------------------------ physics
     def _physics(self) -> np.ndarray:
@@ -411,7 +398,8 @@ class RecoveryEnv(VecEnv):
         self.succeeded[ids] = False
         self.up_time[ids] = 0.0
         self.stood_up[ids] = False
-        self.counted[ids] = True
+        self._bridge_counted[ids] = False
+        self._window_counted[ids] = False
         for sums in self.episode_sums.values():
             sums[ids] = 0.0
 
@@ -425,7 +413,6 @@ class RecoveryEnv(VecEnv):
         log["episode/success"] = torch.from_numpy(self.succeeded[ids].astype(np.float32))
         log["episode/stood_up"] = torch.from_numpy(self.stood_up[ids].astype(np.float32))
         fresh = ~self.replayed[ids]  # replayed starts: logged apart, counted for nothing
-        names = self._pose_names[self.start_pose[ids]]
         for k, pose in enumerate(POSES):  # by start pose, only when such episodes ended
             mine = ids[(self.start_pose[ids] == k) & fresh]
             if len(mine):
@@ -435,27 +422,57 @@ class RecoveryEnv(VecEnv):
                     self.stood_up[mine].astype(np.float32))
         if self.replay.active:
             log.update(self._replay_log(ids[~fresh]))
+        self._count_bridges(ids)
+        self._count_windows(ids)
         for target in self.bridge.targets:
-            mine = ids[(names == target) & fresh]
-            self.bridge.record(target, self.stood_up[mine], self.start_level[mine])
             log[f"bridge_blend/{target}"] = float(self.bridge.blend(target))
-        counted = self.stood_up if self.cfg.curriculum.advance_on == "stood_up" else self.succeeded
-        gated = self.cfg.curriculum.advance_poses
-        scored = np.ones(len(ids), dtype=bool) if gated is None else np.isin(names, gated)
-        scored &= fresh
         log["episode/final_com_height"] = torch.from_numpy(self._state["height"][ids])
-        if self.assist.active and self.cfg.assist.poses is None:  # the curriculum waits
-            self.assist.record(counted[ids[scored]])
-        else:  # assisted episodes anneal the assistance, the others count for the curriculum
-            helped = self.assist.assisted(self._pose_names)[self.start_pose[ids]] & fresh
-            self.assist.record(counted[ids[helped]])
-            self.curriculum.record(counted[ids[scored & ~helped]])
         log["curriculum/assist_fraction"] = float(self.assist.fraction)
         log["curriculum/stage"] = float(self.curriculum.stage)
         log["curriculum/level"] = float(self.curriculum.level)
         log["curriculum/torque_scale"] = float(self.curriculum.torque_scale)
         log["episode/nan_resets_total"] = float(self.nan_resets)
         return log
+
+    # ---------------------------------------------------------- outcome windows
+    # An outcome is counted once per episode, as soon as it is known: a rise when it
+    # happens, a failure when the episode ends. Counted only at the end, a window fills
+    # with the failures first (stuck low after 2 s; a risen robot stays up until the
+    # 20 s timeout), and after each level change, or resume, the bridges stepped back
+    # on windows of failures (training/README.md).
+    def _window_outcome(self) -> np.ndarray:
+        """The curriculum's and the assistance's outcome so far (``advance_on``), (N,) bool."""
+        return self.stood_up if self.cfg.curriculum.advance_on == "stood_up" else self.succeeded
+
+    def _count_bridges(self, ids: np.ndarray) -> None:
+        """Adds the stood-up outcomes of the not yet counted, not replayed episodes
+        ``ids`` to their bridge's window, with their start levels."""
+        ids = ids[~self._bridge_counted[ids] & ~self.replayed[ids]]
+        self._bridge_counted[ids] = True
+        names = self._pose_names[self.start_pose[ids]]
+        for target in self.bridge.targets:
+            mine = ids[names == target]
+            if len(mine):
+                self.bridge.record(target, self.stood_up[mine], self.start_level[mine])
+
+    def _count_windows(self, ids: np.ndarray) -> None:
+        """Adds the outcomes of the not yet counted, not replayed episodes ``ids``:
+        assisted episodes anneal the assistance, the others (of ``advance_poses``) count
+        for the curriculum, which waits while every pose is assisted."""
+        ids = ids[~self._window_counted[ids] & ~self.replayed[ids]]
+        self._window_counted[ids] = True
+        if not len(ids):
+            return
+        outcome = self._window_outcome()[ids]
+        gated = self.cfg.curriculum.advance_poses
+        scored = np.ones(len(ids), dtype=bool) if gated is None else \
+            np.isin(self._pose_names[self.start_pose[ids]], gated)
+        if self.assist.active and self.cfg.assist.poses is None:
+            self.assist.record(outcome[scored])
+        else:
+            helped = self.assist.assisted(self._pose_names)[self.start_pose[ids]]
+            self.assist.record(outcome[helped])
+            self.curriculum.record(outcome[scored & ~helped])
 
     def _replay_log(self, ids: np.ndarray) -> dict:
         """``replay/*``: outcomes of the finished replayed episodes ``ids``, by the pose

@@ -44,10 +44,6 @@ class TrainConfig:
     the paper. The std is a learned parameter; this caps its use in sampling and in the
     PPO ratio."""
     obs_normalization: bool = True
-    stagger_start: bool = True
-    """Spread the env's first episodes over the episode length when training starts or
-    resumes (:meth:`~hybrid_recovery.envs.RecoveryEnv.stagger`, rsl-rl's
-    ``init_at_random_ep_len`` with their outcomes left uncounted)."""
     save_interval: int = 50
     """Iterations between checkpoints; a kill loses at most this many."""
     keep_checkpoints: int = 3

@@ -32,9 +32,9 @@ class RecoveryRunner(OnPolicyRunner):
     env: RecoveryEnv
 
     def __init__(self, env: RecoveryEnv, train_cfg: dict, log_dir: str | None,
-                 meta: dict, keep: int = 3, stagger: bool = True) -> None:
+                 meta: dict, keep: int = 3) -> None:
         super().__init__(env, train_cfg, log_dir=log_dir, device="cpu")
-        self.meta, self.keep, self.stagger = meta, keep, stagger
+        self.meta, self.keep = meta, keep
         self.compute_s: float | None = 0.0  # None: a resumed run whose earlier time is unknown
         self.segments = [{"iteration": 0, "hardware": hardware()}]
         self._clock = time.time()
@@ -60,13 +60,6 @@ class RecoveryRunner(OnPolicyRunner):
         numbered = sorted(run.glob("model_*.pt"), key=lambda p: int(p.stem.split("_")[1]))
         for old in numbered[:-self.keep]:
             old.unlink(missing_ok=True)
-
-    def learn(self, num_learning_iterations: int, init_at_random_ep_len: bool = False) -> None:
-        """rsl-rl's loop, after staggering the env's episodes (``stagger_start``, or
-        ``init_at_random_ep_len``)."""
-        if self.stagger or init_at_random_ep_len:
-            self.env.stagger()
-        super().learn(num_learning_iterations)
 
     def load_run(self, path: Path) -> None:
         """Resumes from a checkpoint: weights, optimiser, normalisers, curriculum, iteration."""
@@ -199,8 +192,7 @@ def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
     meta = {**policy_meta(cfg, env_cfg, critic_dim), "amendments": amendments,
             **({"follow": follow} if follow else {})}
     (run_dir / "config.json").write_text(json.dumps(meta, indent=2, default=str))
-    runner = RecoveryRunner(env, runner_dict(cfg), str(run_dir), meta, cfg.keep_checkpoints,
-                            cfg.stagger_start)
+    runner = RecoveryRunner(env, runner_dict(cfg), str(run_dir), meta, cfg.keep_checkpoints)
     if resume:
         runner.load_run(latest)
         if amend and "assist.fraction" in amend:  # the amendment outranks the saved state
