@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import signal
@@ -19,6 +20,7 @@ from hybrid_recovery.envs.initial_states import POSES
 from hybrid_recovery.envs.rewards import CAPTURE_POINT_TERMS
 from hybrid_recovery.observation import ACTOR_OBS_DIM
 from hybrid_recovery.training import TrainConfig, load_checkpoint, train
+from hybrid_recovery.training.config import train_config_from_dict
 from hybrid_recovery.training.export import (
     actor_from_checkpoint,
     export_policy,
@@ -153,6 +155,12 @@ def test_unknown_variant_and_config_key():
         make_env_config(TrainConfig(variant="nope"))
     with pytest.raises(KeyError, match="unknown config key 'rewards.w_nope'"):
         make_env_config(TrainConfig(env_overrides={"rewards.w_nope": 1.0}))
+    saved = dataclasses.asdict(TrainConfig())
+    assert train_config_from_dict(saved) == TrainConfig()
+    with pytest.raises(KeyError, match=r"train_config has unknown keys \['nope'\]"):
+        train_config_from_dict({**saved, "nope": True})
+    with pytest.raises(KeyError, match=r"train_config.ppo has unknown keys \['lr'\]"):
+        train_config_from_dict({**saved, "ppo": {**saved["ppo"], "lr": 1.0}})
 
 
 def test_sigkill_then_resume_loses_at_most_one_interval(tmp_path):

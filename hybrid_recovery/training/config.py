@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field, fields, replace
 from typing import Any
 
 
@@ -63,6 +63,12 @@ def train_config_from_dict(data: dict[str, Any]) -> TrainConfig:
         KeyError: naming an unknown key.
     """
     data = dict(data)
+    for keys, cls, where in ((set(data) - {"ppo"}, TrainConfig, "train_config"),
+                             (set(data.get("ppo", {})), PPOConfig, "train_config.ppo")):
+        unknown = sorted(keys - {f.name for f in fields(cls)})
+        if unknown:
+            raise KeyError(f"{where} has unknown keys {unknown} (saved by another version "
+                           f"of hybrid_recovery?)")
     ppo = PPOConfig(**data.pop("ppo", {}))
     if "hidden_dims" in data:
         data["hidden_dims"] = tuple(data["hidden_dims"])
