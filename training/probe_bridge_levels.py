@@ -24,8 +24,8 @@ def probe(run: Path, levels: int, num_envs: int, seed: int, source: str,
           target: str) -> dict:
     """Stand-up share of ``run``'s latest actor from each level of the bridge."""
     env, data = training_env(run, num_envs, seed, {
-        "bridge.levels": levels, "bridge.pairs": [[source, target]],
-        "pose_weights": {target: 1.0}})
+        "bridge.levels": levels, "bridge.pairs": [[source, target]], "bridge.mix": 0.0,
+        "pose_weights": {target: 1.0}})  # every start at the probed level, none mixed
     env.assist.fraction = 0.0
     actor = actor_from_checkpoint(data)
     shares = {}
