@@ -92,9 +92,9 @@ class PoseBridge:
         return f"{target}@{k}/{self.cfg.levels}"
 
     def record(self, target: str, stood_up: np.ndarray, levels: np.ndarray | None = None) -> int:
-        """Adds finished ``target`` episodes' outcomes, of those that started at the current
-        level when their start ``levels`` are given; returns the level's change (+1 when
-        one is earned, −1 on a retreat, else 0)."""
+        """Adds ``target`` episodes' known outcomes (a rise, or a failure at the end), of
+        those that started at the current level when their start ``levels`` are given;
+        returns the level's change (+1 when one is earned, −1 on a retreat, else 0)."""
         if not self.active(target):
             return 0
         stood_up = np.atleast_1d(stood_up)

@@ -447,6 +447,8 @@ class RecoveryEnv(VecEnv):
     def _count_bridges(self, ids: np.ndarray) -> None:
         """Adds the stood-up outcomes of the not yet counted, not replayed episodes
         ``ids`` to their bridge's window, with their start levels."""
+        if not self.bridge.targets:  # no bridge: nothing to count, every step
+            return
         ids = ids[~self._bridge_counted[ids] & ~self.replayed[ids]]
         self._bridge_counted[ids] = True
         names = self._pose_names[self.start_pose[ids]]
