@@ -194,6 +194,29 @@ def test_finished_target_episodes_advance_the_bridge(env):
     assert env.bridge.level["kneeling"] == 1
 
 
+@pytest.mark.parametrize("window", [None, 4.0])
+def test_the_targets_episodes_can_have_their_own_stuck_low_window(window):
+    cfg = default_config()
+    cfg.num_envs, cfg.num_threads, cfg.seed = 8, 1, 3
+    cfg.curriculum.enabled = False
+    cfg.pose_weights = {"kneeling": 1.0, "standing": 1.0}
+    cfg.bridge = BridgeConfig(levels=2, pairs=(("half_kneeling", "kneeling"),),
+                              stuck_time=window)
+    env = RecoveryEnv(cfg)
+    ids = np.arange(8)
+    env.start_pose[:] = np.where(ids % 2, POSES.index("kneeling"), POSES.index("standing"))
+    for detector in (env.stuck, env.stuck_bridged):
+        if detector is not None:
+            detector.reset(ids, np.full(8, 0.3))
+    first = np.full(8, np.inf)
+    for step in range(1, 301):  # 6 s still at h_c = 0.3 m
+        stuck = env._stuck_low(np.full(8, 0.3), np.zeros(8, bool))
+        first[stuck & np.isinf(first)] = step * env.dt
+    kneel = ids % 2 == 1
+    np.testing.assert_allclose(first[~kneel], 2.0)  # the other poses: the env's 2 s
+    np.testing.assert_allclose(first[kneel], 2.0 if window is None else window)
+
+
 def test_the_bridge_level_is_checkpointed_and_resumed(tmp_path):
     run = tmp_path / "run"
     overrides = {"curriculum.window": 8, "curriculum.advance_success": 0.0,

@@ -270,6 +270,13 @@ class BridgeConfig:
     window. Why: at levels 16, the full_bridge fork oscillated 300 iterations between
     kneeling 4/16 and 6/16 and sitting 4/16 and 7/16, the rises of the levels it had
     passed no longer trained."""
+    stuck_time: float | None = None
+    """Stuck-low window [s] of the episodes of the bridges' target poses (any level);
+    None: the env's ``stuck_time``. Why one might lengthen it: from the kneel and its
+    blends beyond 3/8, full_bridge 4250 (deterministic) lifts the front foot with the knee
+    still folded in its first 0.3 s, drops back and is ended at 2.0 s in 94–100 % of
+    episodes: one attempt per episode, while its rises from 3/8 slide the foot forward
+    and take longer."""
 
 
 @dataclass

@@ -92,6 +92,9 @@ class RecoveryEnv(VecEnv):
         self.stuck_assisted = None if cfg.assist.stuck_time is None else StuckLow(
             n, cfg.assist.stuck_time, cfg.stuck_rise, self.dt)
         """Stuck-low of the assisted episodes, where their window differs."""
+        self.stuck_bridged = None if cfg.bridge.stuck_time is None else StuckLow(
+            n, cfg.bridge.stuck_time, cfg.stuck_rise, self.dt)
+        """Stuck-low of the bridge targets' episodes, where their window differs."""
         self.replay = StartReplay(cfg.replay, n, m.nq, m.nv, self.max_episode_length, self.dt)
         self.pool = settle_pool(m, per_pose=32, rng=self.rng, nthread=cfg.num_threads)
         self.bridge = PoseBridge(cfg.bridge)
@@ -225,12 +228,16 @@ class RecoveryEnv(VecEnv):
 
     def _stuck_low(self, height: np.ndarray, helped: np.ndarray) -> np.ndarray:
         """The stuck-low termination after one step, (N,) bool; the ``helped`` (assisted)
-        envs by their own window where ``assist.stuck_time`` is set."""
+        envs by their own window where ``assist.stuck_time`` is set, the episodes of the
+        bridges' targets by theirs where ``bridge.stuck_time`` is."""
         low = height < self.cfg.upright_height
         stuck = self.stuck.update(height, self.dt, low)
-        if self.stuck_assisted is None:
-            return stuck
-        return np.where(helped, self.stuck_assisted.update(height, self.dt, low), stuck)
+        if self.stuck_assisted is not None:
+            stuck = np.where(helped, self.stuck_assisted.update(height, self.dt, low), stuck)
+        if self.stuck_bridged is not None:
+            bridged = np.isin(self.start_pose, [POSES.index(t) for t in self.bridge.targets])
+            stuck = np.where(bridged, self.stuck_bridged.update(height, self.dt, low), stuck)
+        return stuck
 
     # ------------------------------------------------------------------ state
     def _com_height(self, qpos: np.ndarray) -> float:
@@ -391,8 +398,9 @@ class RecoveryEnv(VecEnv):
         self.pushes.reset(ids, rng)
         height = self.sims.bind("sensordata")[ids, self.layout.com][:, 2]
         self.stuck.reset(ids, height)
-        if self.stuck_assisted is not None:
-            self.stuck_assisted.reset(ids, height)
+        for detector in (self.stuck_assisted, self.stuck_bridged):
+            if detector is not None:
+                detector.reset(ids, height)
         self.episode_length_buf[torch.from_numpy(ids)] = 0
         self.upright_time[ids] = 0.0
         self.succeeded[ids] = False
