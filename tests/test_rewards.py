@@ -20,6 +20,7 @@ from hybrid_recovery.envs.rewards import (
     com_support_exp,
     compute_rewards,
     fall_velocity_sq,
+    feet_load,
     height_gaussian,
     joint_limit,
     momentum_rate_sq,
@@ -34,6 +35,8 @@ from hybrid_recovery.envs.rewards import (
 H_STAR = 0.92
 DT = 0.02
 CFG = RewardConfig()
+ALL_ON = dataclasses.replace(CFG, w_feet=2.0)
+"""Every term of the table on (the defaults leave r_feet off)."""
 
 
 def state(n: int = 1, **values) -> RewardState:
@@ -45,6 +48,7 @@ def state(n: int = 1, **values) -> RewardState:
         cp_distance=np.full(n, -0.05), net_force=np.zeros((n, 3)), net_torque=np.zeros((n, 3)),
         torque=np.zeros((n, 27)), limit_violation=np.zeros(n), action=np.zeros((n, 27)),
         last_action=np.zeros((n, 27)), gravity_b=gravity, support_contacts=np.zeros(n),
+        foot_force=np.full((n, 2), 500.0), foot_up=np.ones((n, 2)), weight=np.full(n, 1000.0),
         terminated=np.zeros(n, dtype=bool),
     )
     for key, value in values.items():
@@ -166,6 +170,19 @@ def test_support_contacts_are_capped_at_two_and_gated_by_height():
     np.testing.assert_allclose(support_contact(s, CFG, H_STAR), [1.0, 2.0, 2.0, 0.0])
 
 
+def test_feet_load_is_the_weight_share_on_flat_feet():
+    half = 1.0 - (1.0 - CFG.feet_flat) / 2  # u_z half way between u_min and 1
+    s = state(5, foot_force=[[500, 500], [300, 0], [500, 500], [900, 900], [400, 400]],
+              foot_up=[[1, 1], [1, 1], [CFG.feet_flat, -1], [1, 1], [half, 1]])
+    np.testing.assert_allclose(feet_load(s, CFG, H_STAR), [1.0, 0.3, 0.0, 1.0, 0.6])
+
+
+def test_feet_load_is_off_by_default():
+    assert CFG.w_feet == 0.0
+    assert "feet" not in compute_rewards(state(), CFG, H_STAR, DT)[1]
+    assert compute_rewards(state(), ALL_ON, H_STAR, DT)[1]["feet"][0] == pytest.approx(2.0 * DT)
+
+
 def test_termination_penalty_only_on_early_termination():
     s = state(2, terminated=[True, False])
     np.testing.assert_allclose(termination(s, CFG, H_STAR), [1.0, 0.0])
@@ -188,12 +205,13 @@ def test_value_times_weight_times_dt():
               com_distance=rng.uniform(-0.1, 0.3, 6), cp_distance=rng.uniform(-0.1, 0.3, 6),
               net_force=rng.normal(0, 300, (6, 3)), net_torque=rng.normal(0, 30, (6, 3)),
               torque=rng.normal(0, 30, (6, 27)), action=rng.normal(size=(6, 27)),
-              support_contacts=[0, 1, 2, 3, 0, 1], terminated=[0, 1, 0, 0, 1, 0])
-    total, parts = compute_rewards(s, CFG, H_STAR, DT)
+              support_contacts=[0, 1, 2, 3, 0, 1], terminated=[0, 1, 0, 0, 1, 0],
+              foot_force=rng.uniform(0, 800, (6, 2)), foot_up=rng.uniform(-1, 1, (6, 2)))
+    total, parts = compute_rewards(s, ALL_ON, H_STAR, DT)
     assert set(parts) == {name for name, _, _ in REWARD_TERMS}
     for name, weight_field, fn in REWARD_TERMS:
-        np.testing.assert_allclose(parts[name], fn(s, CFG, H_STAR) * getattr(CFG, weight_field)
-                                   * DT)
+        np.testing.assert_allclose(parts[name],
+                                   fn(s, ALL_ON, H_STAR) * getattr(ALL_ON, weight_field) * DT)
         assert parts[name].shape == (6,)
     np.testing.assert_allclose(total, sum(parts.values()))
 
@@ -207,20 +225,20 @@ def test_a_still_upright_robot_earns_a_known_reward_per_second():
 
 @pytest.mark.parametrize("name,weight_field", [(n, w) for n, w, _ in REWARD_TERMS])
 def test_weight_zero_disables_a_term(name, weight_field):
-    cfg = dataclasses.replace(CFG, **{weight_field: 0.0})
+    cfg = dataclasses.replace(ALL_ON, **{weight_field: 0.0})
     s = state(2, height=[0.3, 0.9], height_vel=[-1.0, 0.4], terminated=[True, False],
               cp_distance=[0.2, -0.1], support_contacts=[2, 0])
     total, parts = compute_rewards(s, cfg, H_STAR, DT)
-    full_total, full_parts = compute_rewards(s, CFG, H_STAR, DT)
+    full_total, full_parts = compute_rewards(s, ALL_ON, H_STAR, DT)
     assert name not in parts
     np.testing.assert_allclose(total, full_total - full_parts[name])
 
 
 def test_capture_point_ablation_removes_the_com_and_cp_terms():
-    cfg = dataclasses.replace(CFG, use_capture_point=False)
+    cfg = dataclasses.replace(ALL_ON, use_capture_point=False)
     total, parts = compute_rewards(state(), cfg, H_STAR, DT)
     assert set(CAPTURE_POINT_TERMS) == {"com", "cp"}
     assert not set(parts) & {"com", "cp"}
     assert set(parts) == {name for name, _, _ in REWARD_TERMS} - {"com", "cp"}
-    full_total, full_parts = compute_rewards(state(), CFG, H_STAR, DT)
+    full_total, full_parts = compute_rewards(state(), ALL_ON, H_STAR, DT)
     np.testing.assert_allclose(total, full_total - full_parts["com"] - full_parts["cp"])

@@ -72,6 +72,15 @@ class RewardConfig:
     """Weight of the hand/elbow support reward, paid only while h_c < contact_gate_height."""
     contact_gate_height: float = 0.6
     """CoM height below which hand and elbow support is rewarded [m]."""
+    w_feet: float = 0.0
+    """Weight of r_feet, the share of the body weight borne by flat feet (beyond the paper,
+    off by default). Standing, squatting: ≈ 1; the half-kneel: its front foot's share;
+    kneeling, sitting, lying: ≈ 0. Why: from the two-knee kneel nothing but the rise itself
+    rewards bringing a foot under the body; r_CP reads only the feet's polygon, ≈ 0 until
+    the capture point is inside it."""
+    feet_flat: float = 0.5
+    """u_min: a foot counts fully when its sole normal is vertical, not at all once
+    u_z ≤ u_min (60° tilt), linearly in between."""
     w_alive: float = 1.0
     w_termination: float = -100.0
     """Early-termination penalty (timeouts excluded), × Δt like every term."""

@@ -75,7 +75,7 @@ class RecoveryEnv(VecEnv):
         self.sims = mjbatch.Batch(m, n, cfg.num_threads, persistent=True)
         b = self.sims.bind
         self.qpos, self.qvel, self.ctrl = b("qpos"), b("qvel"), b("ctrl")
-        self.xfrc = b("xfrc_applied")
+        self.xfrc, self.xmat = b("xfrc_applied"), b("xmat")
         self.history, self.actuator_delay = b("history"), self.sims.expand("actuator_delay")
         ns = int(m.actuator_history[0, 0])  # per actuator: 2 + ns times + ns values
         self._history_values = m.actuator_historyadr[:, None] + 2 + ns + np.arange(ns)
@@ -84,6 +84,8 @@ class RecoveryEnv(VecEnv):
         self.qadr = m.jnt_qposadr[1:1 + constants.NUM_JOINTS]
         self.dadr = m.jnt_dofadr[1:1 + constants.NUM_JOINTS]
         self.torso = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, constants.TORSO_BODY)
+        self.feet = np.array([mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name)
+                              for name in constants.FOOT_BODIES])
         self.randomizer = Randomizer(m, self.sims, cfg.domain_rand)
         self.curriculum = Curriculum(cfg.curriculum)
         self.assist = Assist(cfg.assist, cfg.curriculum.window, cfg.curriculum.advance_success)
@@ -143,6 +145,7 @@ class RecoveryEnv(VecEnv):
         self._state: dict[str, np.ndarray] = {}
         groups = self.layout.group_slots
         self._feet_slots = np.concatenate([groups["left_foot"], groups["right_foot"]])
+        self._foot_slots = (groups["left_foot"], groups["right_foot"])
         self._support_slots = np.concatenate([groups["hands"], groups["elbows"]])
         self._reset(np.arange(n))
         self._read_state()
@@ -273,6 +276,9 @@ class RecoveryEnv(VecEnv):
             d_cp=signed_distance_batched(cp, points[:, feet], active[:, feet]),
             torso_force=normal[:, lay.group_slots["torso"]].sum(1),
             support_contacts=active[:, support].sum(1).astype(float),
+            foot_force=np.stack([(normal * active)[:, slots].sum(1)
+                                 for slots in self._foot_slots], 1),
+            foot_up=self.xmat[rows][:, self.feet, 8],
             gyro=sd[:, lay.gyro], quat=quat, gravity_b=projected_gravity(quat),
             q=self.qpos[rows][:, self.qadr], dq=self.qvel[rows][:, self.dadr],
             torque=self.sims.bind("actuator_force")[rows].copy(),
@@ -293,7 +299,9 @@ class RecoveryEnv(VecEnv):
             cp_distance=s["d_cp"], net_force=s["net_force"], net_torque=s["net_torque"],
             torque=s["torque"], limit_violation=excess, action=self.action,
             last_action=self.last_action, gravity_b=s["gravity_b"],
-            support_contacts=s["support_contacts"], terminated=terminated,
+            support_contacts=s["support_contacts"], foot_force=s["foot_force"],
+            foot_up=s["foot_up"], weight=self.randomizer.mass[:, 1:].sum(1) * GRAVITY,
+            terminated=terminated,
         )
 
     def _observations(self) -> TensorDict:

@@ -32,6 +32,9 @@ class RewardState:
         last_action: a_{t−1}, (N, 27).
         gravity_b: torso projected gravity, (N, 3).
         support_contacts: number of hand and elbow contacts bearing load, (N,).
+        foot_force: normal contact force on each foot (left, right), (N, 2) [N].
+        foot_up: z component of each foot's sole normal, u_z ∈ [−1, 1], (N, 2).
+        weight: m g of each env's robot, (N,) [N].
         terminated: early termination (not timeout), (N,) bool.
     """
 
@@ -47,6 +50,9 @@ class RewardState:
     last_action: np.ndarray
     gravity_b: np.ndarray
     support_contacts: np.ndarray
+    foot_force: np.ndarray
+    foot_up: np.ndarray
+    weight: np.ndarray
     terminated: np.ndarray
 
 
@@ -118,6 +124,13 @@ def support_contact(s: RewardState, c: RewardConfig, h_star: float) -> np.ndarra
     return np.minimum(s.support_contacts, 2.0) * (s.height < c.contact_gate_height)
 
 
+def feet_load(s: RewardState, c: RewardConfig, h_star: float) -> np.ndarray:
+    """r_feet = min(1, Σ_f F_f clip((u_z,f − u_min) / (1 − u_min), 0, 1) / (m g)) ∈ [0, 1]:
+    the share of the weight on flat feet."""
+    flat = np.clip((s.foot_up - c.feet_flat) / (1.0 - c.feet_flat), 0.0, 1.0)
+    return np.minimum(np.sum(s.foot_force * flat, -1) / s.weight, 1.0)
+
+
 def alive(s: RewardState, c: RewardConfig, h_star: float) -> np.ndarray:
     """1 per step survived."""
     return np.ones_like(s.height)
@@ -144,6 +157,7 @@ REWARD_TERMS: tuple[tuple[str, str, Term], ...] = (
     ("action_rate", "w_action_rate", action_rate_sq),
     ("orient", "w_orient", orientation_sq),
     ("contact", "w_contact", support_contact),
+    ("feet", "w_feet", feet_load),
     ("alive", "w_alive", alive),
     ("termination", "w_termination", termination),
 )
