@@ -10,14 +10,13 @@ within 72°, for 1 s) says how hard each blend is for each actor.
 
 from __future__ import annotations
 
-import argparse
 import json
 from pathlib import Path
 
 import torch
 
 from hybrid_recovery.training.export import actor_from_checkpoint
-from hybrid_recovery.training.probe import first_episodes, training_env
+from hybrid_recovery.training.probe import bridge_probe_parser, first_episodes, training_env
 
 
 def probe(run: Path, levels: int, num_envs: int, seed: int, source: str,
@@ -38,13 +37,7 @@ def probe(run: Path, levels: int, num_envs: int, seed: int, source: str,
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("runs", type=Path, nargs="+")
-    parser.add_argument("--levels", type=int, default=8)
-    parser.add_argument("--envs", type=int, default=64, help="episodes per level and run")
-    parser.add_argument("--source", default="half_kneeling")
-    parser.add_argument("--target", default="kneeling")
-    parser.add_argument("--seed", type=int, default=7)
+    parser = bridge_probe_parser(__doc__.split("\n")[0])
     args = parser.parse_args()
     torch.set_num_threads(1)
     for run in args.runs:

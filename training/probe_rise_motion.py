@@ -1,0 +1,103 @@
+"""How runs' actors move from each level of a start-pose bridge: deterministic, unassisted
+episodes as in ``probe_bridge_levels.py``, with per episode the feet's highest lift and
+furthest forward travel relative to the CoM, the knees' lift, the time of the peak CoM
+height, the episode's length and how it ended; medians over stood-up and failed episodes.
+
+    python training/probe_rise_motion.py runs/full_bridge --levels 8 --at 3 4 8 --envs 64
+"""
+
+from __future__ import annotations
+
+import json
+from collections import Counter
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import torch
+
+from hybrid_recovery.training.export import actor_from_checkpoint
+from hybrid_recovery.training.probe import bridge_probe_parser, training_env
+
+FEET = ("left_ankle_roll_link", "right_ankle_roll_link")
+KNEES = ("left_knee_link", "right_knee_link")
+
+
+def _medians(rows: dict[str, np.ndarray], mask: np.ndarray) -> dict[str, float] | None:
+    if not mask.any():
+        return None
+    return {key: round(float(np.median(value[mask])), 3) for key, value in rows.items()}
+
+
+def motion(run: Path, levels: int, at: list[int], num_envs: int, seed: int, source: str,
+           target: str) -> dict:
+    """Per probed level: the stood-up share, the end reasons and the motion medians."""
+    env, data = training_env(run, num_envs, seed, {
+        "bridge.levels": levels, "bridge.pairs": [[source, target]], "bridge.mix": 0.0,
+        "pose_weights": {target: 1.0}})
+    env.assist.fraction = 0.0
+    actor = actor_from_checkpoint(data)
+    feet, knees = (np.array([mujoco.mj_name2id(env.model, mujoco.mjtObj.mjOBJ_BODY, b)
+                             for b in names]) for names in (FEET, KNEES))
+    xpos = env.sims.bind("xpos")
+    out = {"run": str(run), "iteration": int(data["iter"]), "episodes": num_envs, "levels": {}}
+    for k in at:
+        env.bridge.level[target] = k
+        n, ids = num_envs, np.arange(num_envs)
+        env._reset(ids)
+        env._read_state(ids)
+        env._obs = env._observations()
+        obs = env.get_observations()
+        done, stood = np.zeros(n, bool), np.zeros(n, bool)
+        foot0, knee0 = xpos[:, feet].copy(), xpos[:, knees].copy()
+        com0 = env._state["com"][:, :2].copy()
+        rows = {name: np.zeros(n) for name in ("foot_lift_m", "foot_forward_m", "knee_lift_m",
+                                              "peak_height_m", "peak_time_s", "length_s")}
+        ends: dict[int, str] = {}
+        step = 0
+        while not done.all():
+            with torch.no_grad():
+                obs, _, dones, extras = env.step(actor(obs))
+            step += 1
+            live = ~done
+            com = env._state["com"]
+            lift = (xpos[:, feet, 2] - foot0[:, :, 2]).max(1)
+            forward = ((xpos[:, feet, 0] - com[:, None, 0])
+                       - (foot0[:, :, 0] - com0[:, None, 0])).max(1)
+            knee = (xpos[:, knees, 2] - knee0[:, :, 2]).max(1)
+            higher = live & (com[:, 2] > rows["peak_height_m"])
+            rows["peak_time_s"][higher] = step * env.dt
+            for name, value in (("foot_lift_m", lift), ("foot_forward_m", forward),
+                                ("knee_lift_m", knee), ("peak_height_m", com[:, 2])):
+                rows[name][live] = np.maximum(rows[name][live], value[live])
+            ended = np.flatnonzero(dones.numpy())
+            if not len(ended):
+                continue
+            first = ~done[ended]
+            log = extras["log"]
+            stood[ended[first]] = log["episode/stood_up"].numpy()[first] > 0
+            rows["length_s"][ended[first]] = step * env.dt
+            for key, value in log.items():
+                if key.startswith("termination/"):
+                    for i in ended[first][value.numpy()[first] > 0]:
+                        ends[int(i)] = key.split("/", 1)[1]
+            done[ended] = True
+        out["levels"][f"{k}/{levels}"] = {
+            "stood_up": round(float(stood.mean()), 3), "ended_by": dict(Counter(ends.values())),
+            "stood_up_medians": _medians(rows, stood), "failed_medians": _medians(rows, ~stood)}
+    return out
+
+
+def main() -> None:
+    parser = bridge_probe_parser(__doc__.split("\n")[0])
+    parser.add_argument("--at", type=int, nargs="+", default=[3, 4, 8],
+                        help="levels to probe (K: the target pose itself)")
+    args = parser.parse_args()
+    torch.set_num_threads(1)
+    for run in args.runs:
+        print(json.dumps(motion(run, args.levels, args.at, args.envs, args.seed, args.source,
+                                args.target)), flush=True)
+
+
+if __name__ == "__main__":
+    main()
