@@ -17,7 +17,7 @@ import numpy as np
 import torch
 
 from hybrid_recovery.training.export import actor_from_checkpoint
-from hybrid_recovery.training.probe import bridge_probe_parser, training_env
+from hybrid_recovery.training.probe import bridge_probe_parser, start_episodes, training_env
 
 FEET = ("left_ankle_roll_link", "right_ankle_roll_link")
 KNEES = ("left_knee_link", "right_knee_link")
@@ -43,11 +43,8 @@ def motion(run: Path, levels: int, at: list[int], num_envs: int, seed: int, sour
     out = {"run": str(run), "iteration": int(data["iter"]), "episodes": num_envs, "levels": {}}
     for k in at:
         env.bridge.level[target] = k
-        n, ids = num_envs, np.arange(num_envs)
-        env._reset(ids)
-        env._read_state(ids)
-        env._obs = env._observations()
-        obs = env.get_observations()
+        n = num_envs
+        obs = start_episodes(env)
         done, stood = np.zeros(n, bool), np.zeros(n, bool)
         foot0, knee0 = xpos[:, feet].copy(), xpos[:, knees].copy()
         com0 = env._state["com"][:, :2].copy()

@@ -100,6 +100,8 @@ class RecoveryEnv(VecEnv):
         self.replay = StartReplay(cfg.replay, n, m.nq, m.nv, self.max_episode_length, self.dt)
         self.pool = settle_pool(m, per_pose=32, rng=self.rng, nthread=cfg.num_threads)
         self.bridge = PoseBridge(cfg.bridge)
+        self._bridge_target = np.isin(POSES, self.bridge.targets)
+        """Whether each start pose is a bridge's target, (len(POSES),) bool."""
         self.bridge_pool = settle_pool(m, per_pose=32, rng=self.rng, nthread=cfg.num_threads,
                                        library=self.bridge.poses()) if cfg.bridge.levels else {}
         """Settled blends of the start-pose bridge (:mod:`~.bridge`), by level name."""
@@ -144,8 +146,8 @@ class RecoveryEnv(VecEnv):
         self.nan_resets = 0
         self._state: dict[str, np.ndarray] = {}
         groups = self.layout.group_slots
-        self._feet_slots = np.concatenate([groups["left_foot"], groups["right_foot"]])
         self._foot_slots = (groups["left_foot"], groups["right_foot"])
+        self._feet_slots = np.concatenate(self._foot_slots)
         self._support_slots = np.concatenate([groups["hands"], groups["elbows"]])
         self._reset(np.arange(n))
         self._read_state()
@@ -168,9 +170,8 @@ class RecoveryEnv(VecEnv):
         helped = self.assist.assisted(self._pose_names)[self.start_pose]  # 7 names, not N
         helped &= ~self.replayed
         if self.assist.active:
-            mass = self.randomizer.mass[:, 1:].sum(1)
             self.xfrc[:, self.torso, 2] += helped * self.assist.force_z(
-                mass, self._state["gravity_b"], GRAVITY, self._state["height"])
+                self._state["mass"], self._state["gravity_b"], GRAVITY, self._state["height"])
         if self.replay.active:
             self.replay.record(self.episode_length_buf.numpy(), self.qpos, self.qvel,
                                self._state["height"], self._recording())
@@ -238,8 +239,8 @@ class RecoveryEnv(VecEnv):
         if self.stuck_assisted is not None:
             stuck = np.where(helped, self.stuck_assisted.update(height, self.dt, low), stuck)
         if self.stuck_bridged is not None:
-            bridged = np.isin(self.start_pose, [POSES.index(t) for t in self.bridge.targets])
-            stuck = np.where(bridged, self.stuck_bridged.update(height, self.dt, low), stuck)
+            stuck = np.where(self._bridge_target[self.start_pose],
+                             self.stuck_bridged.update(height, self.dt, low), stuck)
         return stuck
 
     # ------------------------------------------------------------------ state
@@ -270,7 +271,7 @@ class RecoveryEnv(VecEnv):
         feet, support = self._feet_slots, self._support_slots
         quat = sd[:, lay.quat]
         new = dict(
-            com=com, com_vel=vel, com_acc=acc, lin=lin, ang=ang, cp=cp, height=com[:, 2],
+            mass=mass, com=com, com_vel=vel, com_acc=acc, lin=lin, ang=ang, cp=cp, height=com[:, 2],
             height_vel=vel[:, 2], net_force=force, net_torque=torque,
             d_com=signed_distance_batched(com[:, :2], points, active),
             d_cp=signed_distance_batched(cp, points[:, feet], active[:, feet]),
@@ -300,7 +301,7 @@ class RecoveryEnv(VecEnv):
             torque=s["torque"], limit_violation=excess, action=self.action,
             last_action=self.last_action, gravity_b=s["gravity_b"],
             support_contacts=s["support_contacts"], foot_force=s["foot_force"],
-            foot_up=s["foot_up"], weight=self.randomizer.mass[:, 1:].sum(1) * GRAVITY,
+            foot_up=s["foot_up"], weight=s["mass"] * GRAVITY,
             terminated=terminated,
         )
 

@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 import torch
+from tensordict import TensorDict
 
 from hybrid_recovery.envs import RecoveryEnv, apply_overrides
 from hybrid_recovery.envs.initial_states import POSES
@@ -49,15 +50,21 @@ def training_env(run: Path, num_envs: int, seed: int,
     return env, data
 
 
+def start_episodes(env: RecoveryEnv) -> TensorDict:
+    """Resets every env to a new start (of the current levels) and returns the first
+    observations."""
+    ids = np.arange(env.num_envs)
+    env._reset(ids)
+    env._read_state(ids)
+    env._obs = env._observations()
+    return env.get_observations()
+
+
 def first_episodes(env: RecoveryEnv, actor: torch.nn.Module) -> tuple[np.ndarray, np.ndarray]:
     """Resets every env and plays the deterministic ``actor`` until each has ended one
     episode. Returns (stood up (N,) bool, start pose index into ``POSES`` (N,))."""
     n = env.num_envs
-    ids = np.arange(n)
-    env._reset(ids)
-    env._read_state(ids)
-    env._obs = env._observations()
-    obs = env.get_observations()
+    obs = start_episodes(env)
     done, stood = np.zeros(n, bool), np.zeros(n, bool)
     pose = env.start_pose.copy()
     while not done.all():
