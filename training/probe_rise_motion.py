@@ -1,7 +1,9 @@
 """How runs' actors move from each level of a start-pose bridge: deterministic, unassisted
 episodes as in ``probe_bridge_levels.py``, with per episode the feet's highest lift and
-furthest forward travel relative to the CoM, the knees' lift, the time of the peak CoM
-height, the episode's length and how it ended; medians over stood-up and failed episodes.
+furthest forward travel relative to the CoM, the knees' lift, the CoM's furthest travel
+ahead of and behind its start, the time of the peak CoM height, the episode's length and
+how it ended; medians over stood-up and failed episodes. Forward is the robot's heading at
+the start (its pelvis x axis, horizontal), which the starts draw at random.
 
     python training/probe_rise_motion.py runs/full_bridge --levels 8 --at 3 4 8 --envs 64
 """
@@ -17,7 +19,12 @@ import numpy as np
 import torch
 
 from hybrid_recovery.training.export import actor_from_checkpoint
-from hybrid_recovery.training.probe import bridge_probe_parser, start_episodes, training_env
+from hybrid_recovery.training.probe import (
+    bridge_probe_parser,
+    heading_xy,
+    start_episodes,
+    training_env,
+)
 
 FEET = ("left_ankle_roll_link", "right_ankle_roll_link")
 KNEES = ("left_knee_link", "right_knee_link")
@@ -48,8 +55,10 @@ def motion(run: Path, levels: int, at: list[int], num_envs: int, seed: int, sour
         done, stood = np.zeros(n, bool), np.zeros(n, bool)
         foot0, knee0 = xpos[:, feet].copy(), xpos[:, knees].copy()
         com0 = env._state["com"][:, :2].copy()
+        heading = heading_xy(env.sims.bind("xmat")[:, 1])
         rows = {name: np.zeros(n) for name in ("foot_lift_m", "foot_forward_m", "knee_lift_m",
-                                              "peak_height_m", "peak_time_s", "length_s")}
+                                              "com_ahead_m", "com_behind_m", "peak_height_m",
+                                              "peak_time_s", "length_s")}
         ends: dict[int, str] = {}
         step = 0
         while not done.all():
@@ -59,13 +68,15 @@ def motion(run: Path, levels: int, at: list[int], num_envs: int, seed: int, sour
             live = ~done
             com = env._state["com"]
             lift = (xpos[:, feet, 2] - foot0[:, :, 2]).max(1)
-            forward = ((xpos[:, feet, 0] - com[:, None, 0])
-                       - (foot0[:, :, 0] - com0[:, None, 0])).max(1)
+            foot_rel = xpos[:, feet, :2] - com[:, None, :2] - (foot0[:, :, :2] - com0[:, None])
+            forward = np.einsum("nfk,nk->nf", foot_rel, heading).max(1)
+            travel = np.einsum("nk,nk->n", com[:, :2] - com0, heading)
             knee = (xpos[:, knees, 2] - knee0[:, :, 2]).max(1)
             higher = live & (com[:, 2] > rows["peak_height_m"])
             rows["peak_time_s"][higher] = step * env.dt
             for name, value in (("foot_lift_m", lift), ("foot_forward_m", forward),
-                                ("knee_lift_m", knee), ("peak_height_m", com[:, 2])):
+                                ("knee_lift_m", knee), ("com_ahead_m", travel),
+                                ("com_behind_m", -travel), ("peak_height_m", com[:, 2])):
                 rows[name][live] = np.maximum(rows[name][live], value[live])
             ended = np.flatnonzero(dones.numpy())
             if not len(ended):

@@ -282,10 +282,10 @@ class BridgeConfig:
     stuck_time: float | None = None
     """Stuck-low window [s] of the episodes of the bridges' target poses (any level);
     None: the env's ``stuck_time``. Why one might lengthen it: from the kneel and its
-    blends beyond 3/8, full_bridge 4250 (deterministic) lifts the front foot with the knee
-    still folded in its first 0.3 s, drops back and is ended at 2.0 s in 94–100 % of
-    episodes: one attempt per episode, while its rises from 3/8 slide the foot forward
-    and take longer."""
+    blends beyond 3/8, full_bridge_feet 4800 (deterministic) pitches forward over its knees
+    in its first 0.3 s (the CoM 0.45 m ahead of its start, the feet kicked up 0.6 m behind)
+    and is ended at 2.0 s in every episode: one attempt per episode, while its rises from
+    3/8 take longer."""
 
 
 @dataclass

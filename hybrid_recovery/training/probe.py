@@ -30,6 +30,21 @@ def bridge_probe_parser(description: str) -> argparse.ArgumentParser:
     return parser
 
 
+def heading_xy(xmat: np.ndarray) -> np.ndarray:
+    """Headings: the unit horizontal direction of bodies' x axes.
+
+    Args:
+        xmat: world rotations R, row-major, shape (N, 9).
+
+    Returns:
+        (R_xx, R_yx) normalised, shape (N, 2); (1, 0) for an x axis pointing straight up
+        or down.
+    """
+    axis = np.asarray(xmat, dtype=float)[:, [0, 3]]
+    norm = np.linalg.norm(axis, axis=1, keepdims=True)
+    return np.where(norm > 1e-9, axis / np.maximum(norm, 1e-9), [1.0, 0.0])
+
+
 def training_env(run: Path, num_envs: int, seed: int,
                  overrides: dict | None = None) -> tuple[RecoveryEnv, dict]:
     """``run``'s training env (its config, curriculum and assistance state at its latest
