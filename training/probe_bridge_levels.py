@@ -6,6 +6,10 @@ otherwise and the assistance off; the share that stands up (CoM above 0.85 m, to
 within 72°, for 1 s) says how hard each blend is for each actor.
 
     python training/probe_bridge_levels.py runs/full_se runs/full_bridge --levels 8 --envs 64
+
+``--torque-scale S`` multiplies the hardware effort limits by S (1 ≤ S ≤ the curriculum's
+``torque_scale_explore``) through the torque curriculum's level, the actor unchanged (the
+joint-range factor moves with that level: 0.90 at 1×, 0.91 at 2× with the defaults).
 """
 
 from __future__ import annotations
@@ -20,12 +24,18 @@ from hybrid_recovery.training.probe import bridge_probe_parser, first_episodes, 
 
 
 def probe(run: Path, levels: int, num_envs: int, seed: int, source: str,
-          target: str) -> dict:
-    """Stand-up share of ``run``'s latest actor from each level of the bridge."""
+          target: str, torque_scale: float = 1.0) -> dict:
+    """Stand-up share of ``run``'s latest actor from each level of the bridge, with the
+    effort limits × ``torque_scale``."""
     env, data = training_env(run, num_envs, seed, {
         "bridge.levels": levels, "bridge.pairs": [[source, target]], "bridge.mix": 0.0,
         "pose_weights": {target: 1.0}})  # every start at the probed level, none mixed
     env.assist.fraction = 0.0
+    explore = env.curriculum.cfg.torque_scale_explore
+    if not 1.0 <= torque_scale <= explore:
+        raise ValueError(f"--torque-scale must be in [1, {explore}], got {torque_scale}")
+    env.curriculum.stage = 3
+    env.curriculum.level = (explore - torque_scale) / (explore - 1.0) if explore > 1.0 else 1.0
     actor = actor_from_checkpoint(data)
     shares = {}
     for k in range(levels + 1):
@@ -33,16 +43,17 @@ def probe(run: Path, levels: int, num_envs: int, seed: int, source: str,
         stood, _ = first_episodes(env, actor)
         shares[f"{k}/{levels}"] = round(float(stood.mean()), 3)
     return {"run": str(run), "iteration": int(data["iter"]), "episodes": num_envs,
-            "stood_up_by_level": shares}
+            "torque_scale": round(env.curriculum.torque_scale, 3), "stood_up_by_level": shares}
 
 
 def main() -> None:
     parser = bridge_probe_parser(__doc__.split("\n")[0])
+    parser.add_argument("--torque-scale", type=float, default=1.0)
     args = parser.parse_args()
     torch.set_num_threads(1)
     for run in args.runs:
         print(json.dumps(probe(run, args.levels, args.envs, args.seed, args.source,
-                               args.target)), flush=True)
+                               args.target, args.torque_scale)), flush=True)
 
 
 if __name__ == "__main__":
