@@ -24,12 +24,12 @@ import numpy as np  # noqa: E402
 import torch  # noqa: E402
 
 from hybrid_recovery.envs.render import BalanceRenderer, add_overlay, balance_overlay  # noqa: E402
-from hybrid_recovery.training.export import actor_from_checkpoint  # noqa: E402
 from hybrid_recovery.training.probe import (  # noqa: E402
+    bridge_env,
     bridge_probe_parser,
+    ended_episodes,
     heading_xy,
     start_episodes,
-    training_env,
 )
 
 DEFAULT_TIMES = (0.0, 0.1, 0.2, 0.3, 0.4, 0.6, 0.8, 1.0, 1.5, 2.0)
@@ -39,12 +39,8 @@ def record(run: Path, levels: int, level: int, episodes: int, seed: int, source:
            target: str, times: list[float]) -> dict:
     """qpos (episodes, frames, nq) of the first episode of each env at ``times`` [s] (NaN
     once it has ended), its start heading (episodes, 2) and how it ended."""
-    env, data = training_env(run, episodes, seed, {
-        "bridge.levels": levels, "bridge.pairs": [[source, target]], "bridge.mix": 0.0,
-        "pose_weights": {target: 1.0}})
-    env.assist.fraction = 0.0
+    env, actor, data = bridge_env(run, episodes, seed, levels, source, target)
     env.bridge.level[target] = level
-    actor = actor_from_checkpoint(data)
     obs = start_episodes(env)
     heading = heading_xy(env.sims.bind("xmat")[:, 1].copy())
     at = [int(round(t / env.dt)) for t in times]
@@ -55,19 +51,12 @@ def record(run: Path, levels: int, level: int, episodes: int, seed: int, source:
             frames[~done, j] = env.qpos[~done]
         with torch.no_grad():
             obs, _, dones, extras = env.step(actor(obs))
-        log = extras["log"]
-        for i in np.flatnonzero(dones.numpy()):
-            if done[i]:
-                continue
-            k = list(np.flatnonzero(dones.numpy())).index(i)  # the order of the episode log
-            if log["episode/stood_up"].numpy()[k] > 0:
-                outcome[i] = "stood up"
-            else:
-                causes = [key.split("/", 1)[1] for key, v in log.items()
-                          if key.startswith("termination/") and v.numpy()[k] > 0]
-                outcome[i] = "ended: " + (", ".join(causes) or "?")
-            outcome[i] += f" at {(step + 1) * env.dt:.2f} s"
-            done[i] = True
+        ended, up, causes = ended_episodes(dones, extras)
+        for i, stood, cause in zip(ended, up, causes, strict=True):
+            if not done[i]:
+                how = "stood up" if stood else "ended: " + (cause or "?")
+                outcome[i] = f"{how} at {(step + 1) * env.dt:.2f} s"
+                done[i] = True
     return {"qpos": frames, "heading": heading, "outcome": outcome,
             "iteration": int(data["iter"])}
 

@@ -19,24 +19,19 @@ from pathlib import Path
 
 import torch
 
-from hybrid_recovery.training.export import actor_from_checkpoint
-from hybrid_recovery.training.probe import bridge_probe_parser, first_episodes, training_env
+from hybrid_recovery.training.probe import bridge_env, bridge_probe_parser, first_episodes
 
 
 def probe(run: Path, levels: int, num_envs: int, seed: int, source: str,
           target: str, torque_scale: float = 1.0) -> dict:
     """Stand-up share of ``run``'s latest actor from each level of the bridge, with the
     effort limits × ``torque_scale``."""
-    env, data = training_env(run, num_envs, seed, {
-        "bridge.levels": levels, "bridge.pairs": [[source, target]], "bridge.mix": 0.0,
-        "pose_weights": {target: 1.0}})  # every start at the probed level, none mixed
-    env.assist.fraction = 0.0
+    env, actor, data = bridge_env(run, num_envs, seed, levels, source, target)
     explore = env.curriculum.cfg.torque_scale_explore
     if not 1.0 <= torque_scale <= explore:
         raise ValueError(f"--torque-scale must be in [1, {explore}], got {torque_scale}")
     env.curriculum.stage = 3
     env.curriculum.level = (explore - torque_scale) / (explore - 1.0) if explore > 1.0 else 1.0
-    actor = actor_from_checkpoint(data)
     shares = {}
     for k in range(levels + 1):
         env.bridge.level[target] = k

@@ -18,12 +18,12 @@ import mujoco
 import numpy as np
 import torch
 
-from hybrid_recovery.training.export import actor_from_checkpoint
 from hybrid_recovery.training.probe import (
+    bridge_env,
     bridge_probe_parser,
+    ended_episodes,
     heading_xy,
     start_episodes,
-    training_env,
 )
 
 FEET = ("left_ankle_roll_link", "right_ankle_roll_link")
@@ -39,11 +39,7 @@ def _medians(rows: dict[str, np.ndarray], mask: np.ndarray) -> dict[str, float] 
 def motion(run: Path, levels: int, at: list[int], num_envs: int, seed: int, source: str,
            target: str) -> dict:
     """Per probed level: the stood-up share, the end reasons and the motion medians."""
-    env, data = training_env(run, num_envs, seed, {
-        "bridge.levels": levels, "bridge.pairs": [[source, target]], "bridge.mix": 0.0,
-        "pose_weights": {target: 1.0}})
-    env.assist.fraction = 0.0
-    actor = actor_from_checkpoint(data)
+    env, actor, data = bridge_env(run, num_envs, seed, levels, source, target)
     feet, knees = (np.array([mujoco.mj_name2id(env.model, mujoco.mjtObj.mjOBJ_BODY, b)
                              for b in names]) for names in (FEET, KNEES))
     xpos = env.sims.bind("xpos")
@@ -78,17 +74,13 @@ def motion(run: Path, levels: int, at: list[int], num_envs: int, seed: int, sour
                                 ("knee_lift_m", knee), ("com_ahead_m", travel),
                                 ("com_behind_m", -travel), ("peak_height_m", com[:, 2])):
                 rows[name][live] = np.maximum(rows[name][live], value[live])
-            ended = np.flatnonzero(dones.numpy())
-            if not len(ended):
-                continue
+            ended, up, causes = ended_episodes(dones, extras)
             first = ~done[ended]
-            log = extras["log"]
-            stood[ended[first]] = log["episode/stood_up"].numpy()[first] > 0
+            stood[ended[first]] = up[first]
             rows["length_s"][ended[first]] = step * env.dt
-            for key, value in log.items():
-                if key.startswith("termination/"):
-                    for i in ended[first][value.numpy()[first] > 0]:
-                        ends[int(i)] = key.split("/", 1)[1]
+            for i, cause in zip(ended[first], np.array(causes, dtype=object)[first], strict=True):
+                if cause:
+                    ends[int(i)] = cause
             done[ended] = True
         out["levels"][f"{k}/{levels}"] = {
             "stood_up": round(float(stood.mean()), 3), "ended_by": dict(Counter(ends.values())),

@@ -15,6 +15,7 @@ from hybrid_recovery.envs import RecoveryEnv, apply_overrides
 from hybrid_recovery.envs.initial_states import POSES
 from hybrid_recovery.training.checkpoint import LATEST, load_checkpoint
 from hybrid_recovery.training.config import train_config_from_dict
+from hybrid_recovery.training.export import actor_from_checkpoint
 from hybrid_recovery.training.runner import make_env_config
 
 
@@ -65,6 +66,30 @@ def training_env(run: Path, num_envs: int, seed: int,
     return env, data
 
 
+def bridge_env(run: Path, num_envs: int, seed: int, levels: int, source: str,
+               target: str) -> tuple[RecoveryEnv, torch.nn.Module, dict]:
+    """``run``'s training env with one bridge, ``source`` → ``target`` in ``levels`` steps,
+    every start drawn for ``target`` at the bridge's current level (none mixed) and no
+    assistance; with the run's latest actor and checkpoint."""
+    env, data = training_env(run, num_envs, seed, {
+        "bridge.levels": levels, "bridge.pairs": [[source, target]], "bridge.mix": 0.0,
+        "pose_weights": {target: 1.0}})
+    env.assist.fraction = 0.0
+    return env, actor_from_checkpoint(data), data
+
+
+def ended_episodes(dones: torch.Tensor, extras: dict) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """The episodes one ``env.step`` ended, in the order of its episode log: env ids (E,),
+    stood up (E,) bool, and each one's termination causes joined by ", " ("" if none)."""
+    ids = np.flatnonzero(dones.numpy())
+    log = extras["log"]
+    stood = log["episode/stood_up"].numpy() > 0 if len(ids) else np.zeros(0, bool)
+    flags = {key.split("/", 1)[1]: value.numpy() for key, value in log.items()
+             if key.startswith("termination/")} if len(ids) else {}
+    causes = [", ".join(name for name, v in flags.items() if v[k] > 0) for k in range(len(ids))]
+    return ids, stood, causes
+
+
 def start_episodes(env: RecoveryEnv) -> TensorDict:
     """Resets every env to a new start (of the current levels) and returns the first
     observations."""
@@ -85,10 +110,8 @@ def first_episodes(env: RecoveryEnv, actor: torch.nn.Module) -> tuple[np.ndarray
     while not done.all():
         with torch.no_grad():
             obs, _, dones, extras = env.step(actor(obs))
-        ended = np.flatnonzero(dones.numpy())  # the order of the episode log
-        if not len(ended):
-            continue
+        ended, up, _ = ended_episodes(dones, extras)
         first = ~done[ended]
-        stood[ended[first]] = extras["log"]["episode/stood_up"].numpy()[first] > 0
+        stood[ended[first]] = up[first]
         done[ended] = True
     return stood, pose
