@@ -61,7 +61,7 @@ def motion(run: Path, levels: int, at: list[int], num_envs: int, seed: int, sour
             with torch.no_grad():
                 obs, _, dones, extras = env.step(actor(obs))
             step += 1
-            live = ~done
+            live = ~done & ~dones.numpy()  # an episode ended by this step: its env is reset
             com = env._state["com"]
             lift = (xpos[:, feet, 2] - foot0[:, :, 2]).max(1)
             foot_rel = xpos[:, feet, :2] - com[:, None, :2] - (foot0[:, :, :2] - com0[:, None])
