@@ -1,6 +1,7 @@
-"""r_feet's inputs from the env: each foot's normal force is MuJoCo's own contact force
-on it, the sole normals are those of Pinocchio's foot frames; standing robots carry their
-weight on flat feet, kneeling ones none."""
+"""r_feet's and r_shin's inputs from the env: each foot's normal force is MuJoCo's own
+contact force on it, the sole normals and shin axes are those of Pinocchio's foot and knee
+frames; standing robots carry their weight on flat feet with their knees over their
+ankles, kneeling ones neither."""
 
 from __future__ import annotations
 
@@ -13,7 +14,7 @@ import torch
 from hybrid_recovery.dynamics import GRAVITY, RobotModel
 from hybrid_recovery.dynamics.conventions import qpos_to_pin
 from hybrid_recovery.envs import RecoveryEnv, default_config
-from hybrid_recovery.envs.rewards import feet_load
+from hybrid_recovery.envs.rewards import feet_load, shins_up
 from hybrid_recovery.robot import constants
 
 NUM_ENVS = 8
@@ -77,8 +78,29 @@ def test_sole_normals_are_the_pinocchio_foot_frames_z(standing, i):
     np.testing.assert_allclose(env._state["foot_up"][i], want, atol=1e-9)
 
 
-def test_a_kneeling_robot_has_no_weight_on_flat_feet():
+@pytest.mark.parametrize("i", [1, 4])
+def test_shin_axes_are_the_pinocchio_ankle_to_knee_directions(standing, i):
+    env = _held("kneeling", 5) if i == 4 else standing
+    robot = RobotModel(env.sims.get_model(i))
+    pin.framesForwardKinematics(robot.model, robot.data, qpos_to_pin(env.qpos[i].copy()))
+    want = []
+    for side in ("left", "right"):
+        knee, ankle = (robot.data.oMf[robot.model.getFrameId(f"{side}_{link}_link")].translation
+                       for link in ("knee", "ankle_pitch"))
+        want.append((knee - ankle)[2] / np.linalg.norm(knee - ankle))
+    assert [f"{side}_knee_link" for side in ("left", "right")] == list(constants.KNEE_BODIES)
+    np.testing.assert_allclose(env._state["shin_up"][i], want, atol=1e-9)
+
+
+def test_standing_robots_have_their_knees_over_their_ankles(standing):
+    rs = standing._reward_state(np.zeros(NUM_ENVS, bool))  # default shin tilt 0.2 rad
+    assert (shins_up(rs, standing.cfg.rewards, standing.h_star) > 0.9).all()
+
+
+def test_a_kneeling_robot_has_no_weight_on_flat_feet_and_its_shins_down():
     env = _held("kneeling", 25)
     rs = env._reward_state(np.zeros(NUM_ENVS, bool))
     assert (env._state["foot_up"] < 0.0).all()  # soles facing back, toes on the ground
     assert (feet_load(rs, env.cfg.rewards, env.h_star) == 0.0).all()
+    assert (env._state["shin_up"] < 0.0).all()  # the feet behind, raised on their toes
+    assert (shins_up(rs, env.cfg.rewards, env.h_star) == 0.0).all()

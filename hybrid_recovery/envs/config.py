@@ -81,6 +81,13 @@ class RewardConfig:
     feet_flat: float = 0.5
     """u_min: a foot counts fully when its sole normal is vertical, not at all once
     u_z ≤ u_min (60° tilt), linearly in between."""
+    w_shin: float = 0.0
+    """Weight of r_shin, the mean height of the knees above the ankles over a shin length
+    (beyond the paper, off by default). Why: from the kneel and the half-kneel→kneel
+    blends beyond 3/8, full_bridge_feet and its forks thrust upward with both shins on
+    the ground and pitch forward over the knees (training/README.md); r_feet pays only
+    once a flat foot bears weight, r_shin already while a knee is lifted over its foot,
+    the first half of the step to a half-kneel."""
     w_alive: float = 1.0
     w_termination: float = -100.0
     """Early-termination penalty (timeouts excluded), × Δt like every term."""

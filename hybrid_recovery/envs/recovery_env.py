@@ -86,6 +86,8 @@ class RecoveryEnv(VecEnv):
         self.torso = mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, constants.TORSO_BODY)
         self.feet = np.array([mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name)
                               for name in constants.FOOT_BODIES])
+        self.knees = np.array([mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name)
+                               for name in constants.KNEE_BODIES])
         self.randomizer = Randomizer(m, self.sims, cfg.domain_rand)
         self.curriculum = Curriculum(cfg.curriculum)
         self.assist = Assist(cfg.assist, cfg.curriculum.window, cfg.curriculum.advance_success)
@@ -280,6 +282,7 @@ class RecoveryEnv(VecEnv):
             foot_force=np.stack([(normal * active)[:, slots].sum(1)
                                  for slots in self._foot_slots], 1),
             foot_up=self.xmat[rows][:, self.feet, 8],
+            shin_up=self.xmat[rows][:, self.knees, 8],
             gyro=sd[:, lay.gyro], quat=quat, gravity_b=projected_gravity(quat),
             q=self.qpos[rows][:, self.qadr], dq=self.qvel[rows][:, self.dadr],
             torque=self.sims.bind("actuator_force")[rows].copy(),
@@ -301,7 +304,7 @@ class RecoveryEnv(VecEnv):
             torque=s["torque"], limit_violation=excess, action=self.action,
             last_action=self.last_action, gravity_b=s["gravity_b"],
             support_contacts=s["support_contacts"], foot_force=s["foot_force"],
-            foot_up=s["foot_up"], weight=s["mass"] * GRAVITY,
+            foot_up=s["foot_up"], shin_up=s["shin_up"], weight=s["mass"] * GRAVITY,
             terminated=terminated,
         )
 

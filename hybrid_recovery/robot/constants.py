@@ -100,6 +100,9 @@ IMU_BODY = "torso_link"
 FOOT_BODIES: tuple[str, str] = ("left_ankle_roll_link", "right_ankle_roll_link")
 """Bodies carrying the foot soles (left, right)."""
 
+KNEE_BODIES: tuple[str, str] = ("left_knee_link", "right_knee_link")
+"""The shins (left, right): each link's z axis runs from its ankle up to its knee."""
+
 TORSO_BODY = "torso_link"
 PELVIS_BODY = "pelvis"
 
