@@ -1,9 +1,11 @@
 """How runs' actors move from each level of a start-pose bridge: deterministic, unassisted
 episodes as in ``probe_bridge_levels.py``, with per episode the feet's highest lift and
-furthest forward travel relative to the CoM, the knees' lift, the CoM's furthest travel
-ahead of and behind its start, the time of the peak CoM height, the episode's length and
-how it ended; medians over stood-up and failed episodes. Forward is the robot's heading at
-the start (its pelvis x axis, horizontal), which the starts draw at random.
+furthest forward travel relative to the CoM, the knees' lift, the most upright shin (the
+largest z component of either shin's ankle→knee axis, r_shin's s_z: −0.2 kneeling, ≈ 1
+standing), the CoM's furthest travel ahead of and behind its start, the time of the peak
+CoM height, the episode's length and how it ended; medians over stood-up and failed
+episodes. Forward is the robot's heading at the start (its pelvis x axis, horizontal),
+which the starts draw at random.
 
     python training/probe_rise_motion.py runs/full_bridge --levels 8 --at 3 4 8 --envs 64
 """
@@ -55,6 +57,7 @@ def motion(run: Path, levels: int, at: list[int], num_envs: int, seed: int, sour
         rows = {name: np.zeros(n) for name in ("foot_lift_m", "foot_forward_m", "knee_lift_m",
                                               "com_ahead_m", "com_behind_m", "peak_height_m",
                                               "peak_time_s", "length_s")}
+        rows["shin_up"] = env._state["shin_up"].max(1)
         ends: dict[int, str] = {}
         step = 0
         while not done.all():
@@ -72,7 +75,8 @@ def motion(run: Path, levels: int, at: list[int], num_envs: int, seed: int, sour
             rows["peak_time_s"][higher] = step * env.dt
             for name, value in (("foot_lift_m", lift), ("foot_forward_m", forward),
                                 ("knee_lift_m", knee), ("com_ahead_m", travel),
-                                ("com_behind_m", -travel), ("peak_height_m", com[:, 2])):
+                                ("com_behind_m", -travel), ("peak_height_m", com[:, 2]),
+                                ("shin_up", env._state["shin_up"].max(1))):
                 rows[name][live] = np.maximum(rows[name][live], value[live])
             ended, up, causes = ended_episodes(dones, extras)
             first = ~done[ended]
