@@ -16,7 +16,6 @@ import json
 from collections import Counter
 from pathlib import Path
 
-import mujoco
 import numpy as np
 import torch
 
@@ -27,9 +26,6 @@ from hybrid_recovery.training.probe import (
     heading_xy,
     start_episodes,
 )
-
-FEET = ("left_ankle_roll_link", "right_ankle_roll_link")
-KNEES = ("left_knee_link", "right_knee_link")
 
 
 def _medians(rows: dict[str, np.ndarray], mask: np.ndarray) -> dict[str, float] | None:
@@ -42,8 +38,7 @@ def motion(run: Path, levels: int, at: list[int], num_envs: int, seed: int, sour
            target: str) -> dict:
     """Per probed level: the stood-up share, the end reasons and the motion medians."""
     env, actor, data = bridge_env(run, num_envs, seed, levels, source, target)
-    feet, knees = (np.array([mujoco.mj_name2id(env.model, mujoco.mjtObj.mjOBJ_BODY, b)
-                             for b in names]) for names in (FEET, KNEES))
+    feet, knees = env.feet, env.knees
     xpos = env.sims.bind("xpos")
     out = {"run": str(run), "iteration": int(data["iter"]), "episodes": num_envs, "levels": {}}
     for k in at:
