@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import copy
+
+import mujoco
 import numpy as np
 import pytest
 import torch
@@ -131,3 +134,34 @@ def test_assisted_episodes_can_have_their_own_stuck_low_window(window):
     expected = {None: 2.0, 4.0: 4.0, float("inf"): np.inf}[window]
     np.testing.assert_allclose(first[helped], expected)
     env.step(torch.zeros(8, env.num_actions))  # the step takes the same path
+
+
+def test_an_unknown_mode_is_refused():
+    with pytest.raises(ValueError, match="assist.mode"):
+        Assist(AssistConfig(fraction=0.5, mode="crane"), WINDOW, 0.6)
+
+
+def test_gravity_mode_cancels_that_fraction_of_gravity_on_every_body():
+    """Σ_b J_bᵀ F_b of the lift equals f times MuJoCo's own gravity term g(q) (qfrc_bias at
+    q̇ = 0, with that env's randomised masses); unassisted envs carry no force but the
+    torso's push."""
+    f = 0.4
+    env = _pose_env(fraction=f, max_tilt=np.pi, poses=["supine"], mode="gravity")
+    for _ in range(3):
+        env.step(torch.zeros(8, env.num_actions))
+    supine = np.asarray(env._pose_names)[env.start_pose] == "supine"
+    assert supine.any() and (~supine).any()
+    others = np.delete(env.xfrc[~supine], env.torso, axis=1)
+    assert (others == 0.0).all()
+    model = copy.copy(env.model)  # its masses set per env below
+    data = mujoco.MjData(model)
+    for i in np.flatnonzero(supine):
+        model.body_mass[:] = env.randomizer.mass[i]
+        data.qpos[:], data.qvel[:] = env.qpos[i], 0.0
+        mujoco.mj_forward(model, data)
+        np.testing.assert_allclose(env.xfrc[i, :, 2], f * GRAVITY * env.randomizer.mass[i])
+        qfrc = np.zeros(model.nv)
+        for body in range(1, model.nbody):
+            mujoco.mj_applyFT(model, data, env.xfrc[i, body, :3], env.xfrc[i, body, 3:],
+                              data.xipos[body], body, qfrc)
+        np.testing.assert_allclose(qfrc, f * data.qfrc_bias, atol=1e-6)

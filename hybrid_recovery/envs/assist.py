@@ -8,9 +8,12 @@ import numpy as np
 
 from hybrid_recovery.envs.config import AssistConfig
 
+MODES = ("pull", "gravity")
+
 
 class Assist:
-    """Upward torso force F_z = f m g, f annealed from ``cfg.fraction`` to 0.
+    """Upward force f m g, on the torso (``pull``) or spread over the bodies as their
+    weights (``gravity``), f annealed from ``cfg.fraction`` to 0.
 
     Args:
         cfg: the assistance settings.
@@ -19,6 +22,8 @@ class Assist:
     """
 
     def __init__(self, cfg: AssistConfig, window: int, advance_success: float) -> None:
+        if cfg.mode not in MODES:
+            raise ValueError(f"assist.mode must be one of {MODES}, got '{cfg.mode}'")
         self.cfg, self.advance_success = cfg, advance_success
         self.fraction = cfg.fraction if cfg.fraction >= cfg.floor else 0.0
         self._outcomes: deque[bool] = deque(maxlen=window)
@@ -39,6 +44,22 @@ class Assist:
         if height is not None:
             on = on & (height < self.cfg.max_height)
         return self.fraction * mass * g * on
+
+    def lift_z(self, body_mass: np.ndarray, torso: int, gravity_b: np.ndarray, g: float,
+               height: np.ndarray | None = None) -> np.ndarray:
+        """Upward force on each body, shape (N, nbody) [N]: f m g on the torso (``pull``) or
+        f m_b g on every body b (``gravity``), under the gates of :meth:`force_z`.
+
+        Args:
+            body_mass: per-env body masses m_b (N, nbody) [kg], the world body's 0.
+            torso: the torso's body id.
+        """
+        if self.cfg.mode == "gravity":
+            per_body = self.force_z(np.ones(len(body_mass)), gravity_b, g, height)
+            return per_body[:, None] * body_mass
+        lift = np.zeros_like(body_mass)
+        lift[:, torso] = self.force_z(body_mass.sum(1), gravity_b, g, height)
+        return lift
 
     def assisted(self, start_poses: np.ndarray) -> np.ndarray:
         """Which episodes, by start pose name (N,), the force acts on, shape (N,) bool."""

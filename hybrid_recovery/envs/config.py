@@ -212,6 +212,12 @@ class AssistConfig:
     """CoM height h_c above which the force stops [m]: a pull up to standing height that
     leaves the robot to stand on its own rather than carrying it off the ground
     (0.8 m g lifts a lying H1-2 to h_c ≈ 1.2 m; 1.0 m g off the ground)."""
+    mode: str = "pull"
+    """Where the force acts. ``pull``: on the torso, F_z = f m g. ``gravity``: on every
+    body at its centre of mass, F_z,b = f m_b g, so that the assisted robot moves as under
+    gravity (1 − f) g: its feet, knees and hands still carry the rest of its weight and
+    nothing holds it up that it does not push against (the pull, at 0.72 m g, held a
+    kneeling policy at its stop height, below the success height; full_se 2725)."""
     poses: list[str] | None = None
     """Start poses whose episodes get the force and whose outcomes (stood up or not)
     anneal it, while the other episodes go on counting for the curriculum; None: every
