@@ -32,34 +32,25 @@ class Assist:
     def active(self) -> bool:
         return self.fraction > 0.0
 
-    def force_z(self, mass: np.ndarray, gravity_b: np.ndarray, g: float,
-                height: np.ndarray | None = None) -> np.ndarray:
-        """Upward force per env, shape (N,) [N].
+    def acceleration(self, gravity_b: np.ndarray, g: float,
+                     height: np.ndarray | None = None) -> np.ndarray:
+        """Upward force per unit mass f g, shape (N,) [m/s²]: 0 where the torso tilts
+        beyond ``cfg.max_tilt`` or, given the CoM heights h_c (N,) [m], above
+        ``cfg.max_height``. Times the robot's mass it is the pull on the torso, times each
+        body's mass the lift of the ``gravity`` mode.
 
         Args:
-            mass: total robot mass (N,) [kg]; gravity_b: torso projected gravity (N, 3).
-            height: CoM height h_c (N,) [m]; none pulled above ``cfg.max_height``.
+            gravity_b: torso projected gravity (N, 3).
         """
         on = -gravity_b[:, 2] > np.cos(self.cfg.max_tilt)
         if height is not None:
             on = on & (height < self.cfg.max_height)
-        return self.fraction * mass * g * on
+        return self.fraction * g * on
 
-    def lift_z(self, body_mass: np.ndarray, torso: int, gravity_b: np.ndarray, g: float,
-               height: np.ndarray | None = None) -> np.ndarray:
-        """Upward force on each body, shape (N, nbody) [N]: f m g on the torso (``pull``) or
-        f m_b g on every body b (``gravity``), under the gates of :meth:`force_z`.
-
-        Args:
-            body_mass: per-env body masses m_b (N, nbody) [kg], the world body's 0.
-            torso: the torso's body id.
-        """
-        if self.cfg.mode == "gravity":
-            per_body = self.force_z(np.ones(len(body_mass)), gravity_b, g, height)
-            return per_body[:, None] * body_mass
-        lift = np.zeros_like(body_mass)
-        lift[:, torso] = self.force_z(body_mass.sum(1), gravity_b, g, height)
-        return lift
+    def force_z(self, mass: np.ndarray, gravity_b: np.ndarray, g: float,
+                height: np.ndarray | None = None) -> np.ndarray:
+        """The pull f m g per env, shape (N,) [N], for total robot masses m (N,) [kg]."""
+        return mass * self.acceleration(gravity_b, g, height)
 
     def assisted(self, start_poses: np.ndarray) -> np.ndarray:
         """Which episodes, by start pose name (N,), the force acts on, shape (N,) bool."""

@@ -171,12 +171,15 @@ class RecoveryEnv(VecEnv):
                                                        self.curriculum.difficulty)
         helped = self.assist.assisted(self._pose_names)[self.start_pose]  # 7 names, not N
         helped &= ~self.replayed
-        if self.assist.active or self.cfg.assist.mode == "gravity":  # then the others reset
-            lift = helped[:, None] * self.assist.lift_z(
-                self.randomizer.mass, self.torso, self._state["gravity_b"], GRAVITY,
-                self._state["height"])
-            lift[:, self.torso] += self.xfrc[:, self.torso, 2]
-            self.xfrc[:, :, 2] = lift
+        if self.cfg.assist.mode == "gravity":  # every body's force set, also once annealed
+            lift = helped * self.assist.acceleration(self._state["gravity_b"], GRAVITY,
+                                                     self._state["height"])
+            push_z = self.xfrc[:, self.torso, 2].copy()
+            self.xfrc[:, :, 2] = lift[:, None] * self.randomizer.mass
+            self.xfrc[:, self.torso, 2] += push_z
+        elif self.assist.active:
+            self.xfrc[:, self.torso, 2] += helped * self.assist.force_z(
+                self._state["mass"], self._state["gravity_b"], GRAVITY, self._state["height"])
         if self.replay.active:
             self.replay.record(self.episode_length_buf.numpy(), self.qpos, self.qvel,
                                self._state["height"], self._recording())
