@@ -5,11 +5,19 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pytest
 from torch.utils.tensorboard import SummaryWriter
 
 from hybrid_recovery.evaluation.ablation import ablation_table, run_metrics
 from hybrid_recovery.training import record as record_module
-from hybrid_recovery.training.record import FINAL_WINDOW, plot_curves, read_scalars, training_record
+from hybrid_recovery.training.record import (
+    FINAL_WINDOW,
+    lineage_ranges,
+    plot_curves,
+    read_lineage,
+    read_scalars,
+    training_record,
+)
 
 
 def _fake_run(path):
@@ -130,3 +138,52 @@ def test_curves_draw_the_chosen_panels(tmp_path, monkeypatch):
     plot_curves(tmp_path, tmp_path / "window.png", curves=chosen, by_pose=False,
                 since=55, upto=70)
     assert [(s.min(), s.max()) for s in drawn] == [(55, 69), (55, 70), (55, 70)]
+
+
+def _fork(parent, path, start=60, stop=100):
+    """A copy of ``parent``'s checkpoint at ``start`` resumed in ``path``: it logs from there."""
+    path.mkdir()
+    writer = SummaryWriter(str(path))
+    for it in range(start, stop):
+        writer.add_scalar("episode/success", 1.0, it)
+        writer.add_scalar("Train/mean_reward", -float(it), it)
+    writer.close()
+    (path / "config.json").write_text((parent / "config.json").read_text())
+
+
+def test_a_fork_reads_as_one_run_from_its_lineage_root(tmp_path, monkeypatch):
+    parent = tmp_path / "parent"
+    parent.mkdir()
+    _fake_run(parent)  # 0..79
+    _fork(parent, tmp_path / "fork")  # 60..99
+    merged = read_lineage([parent, tmp_path / "fork"])
+    steps, values = merged["episode/success"]
+    np.testing.assert_array_equal(steps, np.arange(100))  # the parent's 60..79 left out
+    np.testing.assert_allclose(values[[10, 59, 60, 99]], [0.0, 0.59, 1.0, 1.0], rtol=1e-6)
+    steps, values = merged["Train/mean_reward"]  # parent 50..79, fork 60..99
+    np.testing.assert_array_equal(steps, np.arange(50, 100))
+    assert values[9] == 59.0 and values[10] == -60.0
+    assert merged["Perf/learning_time"][0].max() == 59  # the fork no longer logs it
+    assert lineage_ranges([parent, tmp_path / "fork"]) == [
+        {"run": "parent", "first_iteration": 0, "last_iteration": 59},
+        {"run": "fork", "first_iteration": 60, "last_iteration": 99}]
+    checkpoint = {"iter": 99, "infos": {"env_steps": 100 * 24 * 8, "meta": {
+        "variant": "full", "git_commit": "abc", "train_config": {"num_envs": 8}}}}
+    record = training_record(tmp_path / "fork", checkpoint, history=[parent])
+    assert record["compute_time_s"] == 60 * 5.0  # the parent's 0..59; the fork logs none
+    assert record["lineage"][0]["run"] == "parent"
+    assert "lineage" not in training_record(tmp_path / "fork", checkpoint)
+    drawn = []
+    monkeypatch.setattr(record_module, "_draw",
+                        lambda ax, scalar, *a, **k: drawn.append(scalar[0]))
+    plot_curves({"fork": [parent, tmp_path / "fork"]}, tmp_path / "lineage.png",
+                curves=(("episode/success", "success"),), by_pose=False)
+    assert drawn[0].min() == 0 and drawn[0].max() == 99
+
+
+def test_a_lineage_without_scalars_is_refused(tmp_path):
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(ValueError, match="no logged scalars"):
+        read_lineage([tmp_path / "empty"])
+    with pytest.raises(ValueError, match="no run directories"):
+        read_lineage([])

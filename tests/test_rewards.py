@@ -73,6 +73,15 @@ def test_rise_pays_alpha_times_rising_speed_below_the_band_only():
                                [CFG.alpha_rise * 0.5, 0.0, 0.0, 0.0, 0.0])
 
 
+def test_rise_cap_stops_paying_for_speed_above_it():
+    low = H_STAR - 2 * CFG.height_band
+    capped = dataclasses.replace(CFG, rise_vel_max=0.4)
+    s = state(3, height=[low, low, low], height_vel=[0.2, 0.4, 1.5])
+    np.testing.assert_allclose(rise_velocity(s, capped, H_STAR),
+                               [CFG.alpha_rise * 0.2, CFG.alpha_rise * 0.4, CFG.alpha_rise * 0.4])
+    assert rise_velocity(s, CFG, H_STAR)[2] == CFG.alpha_rise * 1.5  # default: unbounded
+
+
 def test_fall_costs_squared_falling_speed_outside_the_band():
     s = state(4, height=[0.5, 0.5, H_STAR, H_STAR + 0.2], height_vel=[-1.0, 1.0, -1.0, -0.5])
     r = fall_velocity_sq(s, CFG, H_STAR)

@@ -37,6 +37,10 @@ class RewardConfig:
     w_rise: float = 1.0
     alpha_rise: float = 4.0
     """α_r [1/(m/s)]."""
+    rise_vel_max: float = float("inf")
+    """ḣ_max [m/s]: r_rise pays min(ḣ_c, ḣ_max); the paper's r_rise is unbounded (∞). The
+    rises the policy found by 6575 are one thrust (up within 0.4–0.6 s), which from the
+    kneel throws the robot onto its face; a cap stops paying for the speed of that thrust."""
     w_fall: float = 1.0
     alpha_fall: float = 4.0
     """α_f [1/(m/s)²]."""

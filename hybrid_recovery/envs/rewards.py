@@ -66,8 +66,9 @@ def height_gaussian(s: RewardState, c: RewardConfig, h_star: float) -> np.ndarra
 
 
 def rise_velocity(s: RewardState, c: RewardConfig, h_star: float) -> np.ndarray:
-    """r_rise = α_r max(ḣ_c, 0) 1[h_c < h* − δ_h]: off inside the dead band."""
-    return c.alpha_rise * np.maximum(s.height_vel, 0.0) * (s.height < h_star - c.height_band)
+    """r_rise = α_r clip(ḣ_c, 0, ḣ_max) 1[h_c < h* − δ_h]: off inside the dead band."""
+    rising = np.clip(s.height_vel, 0.0, c.rise_vel_max)
+    return c.alpha_rise * rising * (s.height < h_star - c.height_band)
 
 
 def fall_velocity_sq(s: RewardState, c: RewardConfig, h_star: float) -> np.ndarray:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from pathlib import Path
 
 import torch
@@ -60,10 +61,12 @@ def policy_description(meta: dict, env_steps: int | None, iteration: int | None)
 
 
 def export_policy(run_dir: str | Path, out_dir: str | Path | None = None,
-                  checkpoint: str | Path | None = None) -> Path:
+                  checkpoint: str | Path | None = None,
+                  history: Sequence[str | Path] = ()) -> Path:
     """Writes ``policy.onnx`` (+ ``policy.onnx.data`` if torch splits the weights),
     ``policy.json`` and the training record (``training_record.json``, ``curves.png``)
-    for the newest checkpoint of ``run_dir``.
+    for the newest checkpoint of ``run_dir``. ``history``: the runs ``run_dir`` was forked
+    from, oldest first; the record's curves then start at the lineage's root.
 
     Returns:
         The output directory.
@@ -81,7 +84,7 @@ def export_policy(run_dir: str | Path, out_dir: str | Path | None = None,
     meta = data["infos"]["meta"]
     desc = policy_description(meta, data["infos"].get("env_steps"), data.get("iter"))
     (out / "policy.json").write_text(json.dumps(desc, indent=2))
-    record = training_record(run_dir, data)
+    record = training_record(run_dir, data, history)
     (out / "training_record.json").write_text(json.dumps(record, indent=2, default=str))
-    plot_curves(run_dir, out / "curves.png", upto=int(data["iter"]))
+    plot_curves({run_dir.name: [*history, run_dir]}, out / "curves.png", upto=int(data["iter"]))
     return out

@@ -52,6 +52,45 @@ def read_scalars(run_dir: str | Path) -> dict[str, tuple[np.ndarray, np.ndarray]
     return out
 
 
+def read_lineage(run_dirs: Sequence[str | Path]) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+    """The scalars of a fork and the runs it descends from, oldest first, as one run.
+
+    A fork (a copy of another run's checkpoint, resumed in a new directory) logs from its
+    fork point only; each later directory takes over from its first logged iteration, so
+    the earlier run's iterations after the fork (its own continuation) are left out.
+    """
+    if not run_dirs:
+        raise ValueError("read_lineage: no run directories")
+    merged: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    for run_dir in run_dirs:
+        scalars = read_scalars(run_dir)
+        if not scalars:
+            raise ValueError(f"read_lineage: {run_dir} holds no logged scalars")
+        start = min(int(steps.min()) for steps, _ in scalars.values() if len(steps))
+        for tag, (steps, values) in scalars.items():
+            old_steps, old_values = merged.get(tag, (np.zeros(0, int), np.zeros(0)))
+            keep = old_steps < start
+            merged[tag] = (np.concatenate([old_steps[keep], steps]),
+                           np.concatenate([old_values[keep], values]))
+        for tag, (old_steps, old_values) in list(merged.items()):
+            if tag not in scalars:  # a tag the fork no longer logs ends at the fork
+                keep = old_steps < start
+                merged[tag] = (old_steps[keep], old_values[keep])
+    return merged
+
+
+def lineage_ranges(run_dirs: Sequence[str | Path]) -> list[dict]:
+    """Each directory of a lineage with the iterations it contributes to :func:`read_lineage`."""
+    starts = []
+    for run_dir in run_dirs:
+        scalars = read_scalars(run_dir)
+        starts.append((min(int(s.min()) for s, _ in scalars.values() if len(s)),
+                       max(int(s.max()) for s, _ in scalars.values() if len(s))))
+    return [{"run": Path(d).name, "first_iteration": lo,
+             "last_iteration": (starts[k + 1][0] - 1 if k + 1 < len(starts) else hi)}
+            for k, (d, (lo, hi)) in enumerate(zip(run_dirs, starts, strict=True))]
+
+
 def hardware() -> dict:
     """The machine a run trained on, as far as Python can tell."""
     import mujoco
@@ -71,10 +110,15 @@ def hardware() -> dict:
             "mujoco": mujoco.__version__, "platform": platform.platform()}
 
 
-def training_record(run_dir: str | Path, checkpoint: dict) -> dict:
-    """The record of the run that produced ``checkpoint`` (a loaded checkpoint dict)."""
+def training_record(run_dir: str | Path, checkpoint: dict,
+                    history: Sequence[str | Path] = ()) -> dict:
+    """The record of the run that produced ``checkpoint`` (a loaded checkpoint dict).
+
+    ``history``: the runs ``run_dir`` was forked from, oldest first (:func:`read_lineage`).
+    """
     meta = checkpoint["infos"]["meta"]
-    scalars = read_scalars(run_dir)
+    lineage = [*history, run_dir]
+    scalars = read_lineage(lineage)
     iteration = int(checkpoint["iter"])
 
     def upto(tag: str) -> np.ndarray:
@@ -100,6 +144,7 @@ def training_record(run_dir: str | Path, checkpoint: dict) -> dict:
         "curriculum": _without_outcomes(checkpoint["infos"].get("curriculum")),
         "assist": _without_outcomes(checkpoint["infos"].get("assist")),
         f"final_mean_of_last_{FINAL_WINDOW}_iterations": final,
+        **({"lineage": lineage_ranges(lineage)} if history else {}),
     }
 
 
@@ -115,14 +160,19 @@ def _draw(ax, scalar: tuple[np.ndarray, np.ndarray], per_iteration: int, **style
     ax.plot(steps[k - 1:] * per_iteration / 1e6, smooth, lw=1.4, **style)
 
 
-def plot_curves(runs: str | Path | Mapping[str, str | Path], out: str | Path,
+Lineage = str | Path | Sequence[str | Path]
+"""A run directory, or a fork with the runs it descends from, oldest first."""
+
+
+def plot_curves(runs: str | Path | Mapping[str, Lineage], out: str | Path,
                 title: str | None = None, upto: int | None = None,
                 curves: Sequence[tuple[str, str]] = CURVES, by_pose: bool = True,
                 since: int | None = None) -> Path:
     """Writes learning curves against env steps as a PNG.
 
     Args:
-        runs: one run directory, or label → run directory to compare runs on one figure.
+        runs: one run directory, or label → run directory to compare runs on one figure
+            (a list of directories, oldest first, draws a fork from its lineage's root).
         out: the PNG path.
         title: figure title (default: the runs and their sizes).
         upto: draw iterations ≤ upto only (an exported checkpoint's curves).
@@ -148,8 +198,10 @@ def plot_curves(runs: str | Path | Mapping[str, str | Path], out: str | Path,
         ax.set_xlabel("env steps [millions]", fontsize=8)
         ax.grid(alpha=0.3)
     sizes = []
-    for index, (name, run_dir) in enumerate(runs.items()):
-        scalars = read_scalars(run_dir)
+    for index, (name, run) in enumerate(runs.items()):
+        lineage = [run] if isinstance(run, str | Path) else list(run)
+        run_dir = lineage[-1]
+        scalars = read_lineage(lineage)
         lo, hi = -np.inf if since is None else since, np.inf if upto is None else upto
         scalars = {tag: (steps[(steps >= lo) & (steps <= hi)],
                          values[(steps >= lo) & (steps <= hi)])
