@@ -66,7 +66,7 @@ def read_lineage(run_dirs: Sequence[str | Path]) -> dict[str, tuple[np.ndarray, 
         scalars = read_scalars(run_dir)
         if not scalars:
             raise ValueError(f"read_lineage: {run_dir} holds no logged scalars")
-        start = min(int(steps.min()) for steps, _ in scalars.values() if len(steps))
+        start, _ = _iterations(scalars)
         for tag, (steps, values) in scalars.items():
             old_steps, old_values = merged.get(tag, (np.zeros(0, int), np.zeros(0)))
             keep = old_steps < start
@@ -79,13 +79,16 @@ def read_lineage(run_dirs: Sequence[str | Path]) -> dict[str, tuple[np.ndarray, 
     return merged
 
 
+def _iterations(scalars: Mapping[str, tuple[np.ndarray, np.ndarray]]) -> tuple[int, int]:
+    """The first and last iteration a run logged; rsl-rl's ``…/time`` tags, logged against
+    wall-clock seconds, are not iterations."""
+    steps = [s for tag, (s, _) in scalars.items() if len(s) and not tag.endswith("/time")]
+    return min(int(s.min()) for s in steps), max(int(s.max()) for s in steps)
+
+
 def lineage_ranges(run_dirs: Sequence[str | Path]) -> list[dict]:
     """Each directory of a lineage with the iterations it contributes to :func:`read_lineage`."""
-    starts = []
-    for run_dir in run_dirs:
-        scalars = read_scalars(run_dir)
-        starts.append((min(int(s.min()) for s, _ in scalars.values() if len(s)),
-                       max(int(s.max()) for s, _ in scalars.values() if len(s))))
+    starts = [_iterations(read_scalars(run_dir)) for run_dir in run_dirs]
     return [{"run": Path(d).name, "first_iteration": lo,
              "last_iteration": (starts[k + 1][0] - 1 if k + 1 < len(starts) else hi)}
             for k, (d, (lo, hi)) in enumerate(zip(run_dirs, starts, strict=True))]
