@@ -12,7 +12,7 @@ from hybrid_recovery.evaluation.ablation import ablation_table, run_metrics
 from hybrid_recovery.training import record as record_module
 from hybrid_recovery.training.record import (
     FINAL_WINDOW,
-    lineage_ranges,
+    load_lineage,
     plot_curves,
     read_lineage,
     read_scalars,
@@ -165,7 +165,7 @@ def test_a_fork_reads_as_one_run_from_its_lineage_root(tmp_path, monkeypatch):
     np.testing.assert_array_equal(steps, np.arange(50, 100))
     assert values[9] == 59.0 and values[10] == -60.0
     assert merged["Perf/learning_time"][0].max() == 59  # the fork no longer logs it
-    assert lineage_ranges([parent, tmp_path / "fork"]) == [
+    assert load_lineage([parent, tmp_path / "fork"])[1] == [
         {"run": "parent", "first_iteration": 0, "last_iteration": 59},
         {"run": "fork", "first_iteration": 60, "last_iteration": 99}]
     checkpoint = {"iter": 99, "infos": {"env_steps": 100 * 24 * 8, "meta": {

@@ -1,6 +1,6 @@
 """The pace of the start-pose frontier along a lineage of runs, and where it would end.
 
-Reads a fork and the runs it descends from (oldest first, :func:`read_lineage`) and, for
+Reads a fork and the runs it descends from (oldest first, :func:`load_lineage`) and, for
 each bridge, fits a straight line to its level (``bridge_blend/<pose>`` × ``bridge.levels``)
 over the iterations from ``--since`` on; the fit's slope says how many iterations, env
 steps and hours of one training process (at the run's own seconds per iteration over
@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hybrid_recovery.training.record import lineage_ranges, read_lineage
+from hybrid_recovery.training.record import load_lineage, logged_iterations
 
 
 def fit_pace(steps: np.ndarray, values: np.ndarray, since: int) -> tuple[float, float]:
@@ -47,12 +47,12 @@ def main() -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    scalars = read_lineage(args.lineage)
+    scalars, ranges = load_lineage(args.lineage)
     meta = json.loads((args.lineage[-1] / "config.json").read_text())
     env, train = meta["env_config"], meta["train_config"]
     levels = int(env["bridge"]["levels"])
     per_iteration = train["num_envs"] * train["num_steps_per_env"]
-    last = max(int(s.max()) for t, (s, _) in scalars.items() if not t.endswith("/time"))
+    _, last = logged_iterations(scalars)
     times = [scalars[t] for t in ("Perf/collection_time", "Perf/learning_time") if t in scalars]
     seconds = sum(float(np.mean(v[s >= args.since])) for s, v in times)
 
@@ -105,9 +105,9 @@ def main() -> None:
     axes[1].set_xlabel("iteration")
     axes[1].grid(alpha=0.3)
     for ax in axes:
-        for run in lineage_ranges(args.lineage)[1:]:
+        for run in ranges[1:]:
             ax.axvline(run["first_iteration"], color="0.7", lw=0.6, ls=":")
-    names = " → ".join(r["run"] for r in lineage_ranges(args.lineage))
+    names = " → ".join(r["run"] for r in ranges)
     fig.suptitle(f"{names} (dotted: forks); {seconds:.1f} s per iteration, "
                  f"{per_iteration} env steps per iteration", fontsize=9)
     fig.tight_layout()

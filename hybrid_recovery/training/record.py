@@ -57,41 +57,44 @@ def read_lineage(run_dirs: Sequence[str | Path]) -> dict[str, tuple[np.ndarray, 
 
     A fork (a copy of another run's checkpoint, resumed in a new directory) logs from its
     fork point only; each later directory takes over from its first logged iteration, so
-    the earlier run's iterations after the fork (its own continuation) are left out.
+    the earlier run's iterations after the fork (its own continuation) are left out, also
+    of tags the fork no longer logs.
     """
-    if not run_dirs:
-        raise ValueError("read_lineage: no run directories")
-    merged: dict[str, tuple[np.ndarray, np.ndarray]] = {}
-    for run_dir in run_dirs:
-        scalars = read_scalars(run_dir)
-        if not scalars:
-            raise ValueError(f"read_lineage: {run_dir} holds no logged scalars")
-        start, _ = _iterations(scalars)
-        for tag, (steps, values) in scalars.items():
-            old_steps, old_values = merged.get(tag, (np.zeros(0, int), np.zeros(0)))
-            keep = old_steps < start
-            merged[tag] = (np.concatenate([old_steps[keep], steps]),
-                           np.concatenate([old_values[keep], values]))
-        for tag, (old_steps, old_values) in list(merged.items()):
-            if tag not in scalars:  # a tag the fork no longer logs ends at the fork
-                keep = old_steps < start
-                merged[tag] = (old_steps[keep], old_values[keep])
-    return merged
+    return load_lineage(run_dirs)[0]
 
 
-def _iterations(scalars: Mapping[str, tuple[np.ndarray, np.ndarray]]) -> tuple[int, int]:
+def logged_iterations(scalars: Mapping[str, tuple[np.ndarray, np.ndarray]]) -> tuple[int, int]:
     """The first and last iteration a run logged; rsl-rl's ``…/time`` tags, logged against
     wall-clock seconds, are not iterations."""
     steps = [s for tag, (s, _) in scalars.items() if len(s) and not tag.endswith("/time")]
     return min(int(s.min()) for s in steps), max(int(s.max()) for s in steps)
 
 
-def lineage_ranges(run_dirs: Sequence[str | Path]) -> list[dict]:
-    """Each directory of a lineage with the iterations it contributes to :func:`read_lineage`."""
-    starts = [_iterations(read_scalars(run_dir)) for run_dir in run_dirs]
-    return [{"run": Path(d).name, "first_iteration": lo,
-             "last_iteration": (starts[k + 1][0] - 1 if k + 1 < len(starts) else hi)}
-            for k, (d, (lo, hi)) in enumerate(zip(run_dirs, starts, strict=True))]
+def load_lineage(run_dirs: Sequence[str | Path]
+                 ) -> tuple[dict[str, tuple[np.ndarray, np.ndarray]], list[dict]]:
+    """:func:`read_lineage`'s scalars and, from the same read of the logs, each directory
+    with the iterations it contributes (``run``, ``first_iteration``, ``last_iteration``)."""
+    if not run_dirs:
+        raise ValueError("read_lineage: no run directories")
+    empty = (np.zeros(0, int), np.zeros(0))
+    merged: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+    spans = []
+    for run_dir in run_dirs:
+        scalars = read_scalars(run_dir)
+        if not scalars:
+            raise ValueError(f"read_lineage: {run_dir} holds no logged scalars")
+        start, stop = logged_iterations(scalars)
+        spans.append((Path(run_dir).name, start, stop))
+        for tag in merged.keys() | scalars.keys():
+            old_steps, old_values = merged.get(tag, empty)
+            steps, values = scalars.get(tag, empty)
+            keep = old_steps < start
+            merged[tag] = (np.concatenate([old_steps[keep], steps]),
+                           np.concatenate([old_values[keep], values]))
+    ranges = [{"run": name, "first_iteration": lo,
+               "last_iteration": spans[k + 1][1] - 1 if k + 1 < len(spans) else hi}
+              for k, (name, lo, hi) in enumerate(spans)]
+    return merged, ranges
 
 
 def hardware() -> dict:
@@ -120,8 +123,7 @@ def training_record(run_dir: str | Path, checkpoint: dict,
     ``history``: the runs ``run_dir`` was forked from, oldest first (:func:`read_lineage`).
     """
     meta = checkpoint["infos"]["meta"]
-    lineage = [*history, run_dir]
-    scalars = read_lineage(lineage)
+    scalars, ranges = load_lineage([*history, run_dir])
     iteration = int(checkpoint["iter"])
 
     def upto(tag: str) -> np.ndarray:
@@ -147,7 +149,7 @@ def training_record(run_dir: str | Path, checkpoint: dict,
         "curriculum": _without_outcomes(checkpoint["infos"].get("curriculum")),
         "assist": _without_outcomes(checkpoint["infos"].get("assist")),
         f"final_mean_of_last_{FINAL_WINDOW}_iterations": final,
-        **({"lineage": lineage_ranges(lineage)} if history else {}),
+        **({"lineage": ranges} if history else {}),
     }
 
 
