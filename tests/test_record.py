@@ -174,6 +174,10 @@ def test_a_fork_reads_as_one_run_from_its_lineage_root(tmp_path, monkeypatch):
     assert record["compute_time_s"] == 60 * 5.0  # the parent's 0..59; the fork logs none
     assert record["lineage"][0]["run"] == "parent"
     assert "lineage" not in training_record(tmp_path / "fork", checkpoint)
+    checkpoint["iter"] = 90  # an earlier checkpoint of the fork, which logged on to 99
+    assert training_record(tmp_path / "fork", checkpoint, history=[parent])["lineage"] == [
+        {"run": "parent", "first_iteration": 0, "last_iteration": 59},
+        {"run": "fork", "first_iteration": 60, "last_iteration": 90}]
     drawn = []
     monkeypatch.setattr(record_module, "_draw",
                         lambda ax, scalar, *a, **k: drawn.append(scalar[0]))

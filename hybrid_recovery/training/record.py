@@ -125,6 +125,9 @@ def training_record(run_dir: str | Path, checkpoint: dict,
     meta = checkpoint["infos"]["meta"]
     scalars, ranges = load_lineage([*history, run_dir])
     iteration = int(checkpoint["iter"])
+    # the run may have logged past the exported checkpoint: the lineage ends at it
+    ranges = [{**span, "last_iteration": min(span["last_iteration"], iteration)}
+              for span in ranges if span["first_iteration"] <= iteration]
 
     def upto(tag: str) -> np.ndarray:
         steps, values = scalars.get(tag, (np.zeros(0), np.zeros(0)))
