@@ -9,7 +9,12 @@ import pytest
 
 from hybrid_recovery.evaluation import run_protocol
 from hybrid_recovery.evaluation.runner import completed_keys, load_results
-from hybrid_recovery.evaluation.scenario import Scenario, pushes_protocol, sweep_protocol
+from hybrid_recovery.evaluation.scenario import (
+    SWEEP_POSES,
+    Scenario,
+    pushes_protocol,
+    sweep_protocol,
+)
 from hybrid_recovery.evaluation.strategy import CONTACT_BODIES, label_strategy
 from hybrid_recovery.evaluation.success import recovery_time, stuck_low, wilson_interval
 
@@ -120,6 +125,24 @@ def test_protocol_grids():
     assert len(sweep) == 5 * 11 * 4 * 5
     assert len({s.key for s in sweep}) == len(sweep)
     assert len(pushes_protocol(2)) == 10 * 4 * 2
+
+
+def test_eval_poses_restricts_the_poses_protocol_too():
+    from argparse import Namespace
+
+    from hybrid_recovery.cli.cmd_eval import _scenarios
+
+    def args(protocol, poses):
+        return Namespace(protocol=protocol, trials=40, seed=2, duration=None, poses=poses)
+
+    picked = _scenarios(args("poses", ["squatting", "kneeling"]))
+    assert len(picked) == 40 and {s.pose for s in picked} == {"squatting", "kneeling"}
+    assert {s.pose for s in _scenarios(args("poses", None))} == set(SWEEP_POSES)
+    assert {s.pose for s in _scenarios(args("sweep", ["kneeling"]))} == {"kneeling"}
+    with pytest.raises(ValueError, match="unknown pose 'flying'"):
+        _scenarios(args("poses", ["squatting", "flying"]))
+    with pytest.raises(SystemExit, match="pushes start from standing"):
+        _scenarios(args("pushes", ["kneeling"]))
 
 
 def test_tiny_sweep_runs_resumes_and_reports(tmp_path):

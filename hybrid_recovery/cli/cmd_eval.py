@@ -9,19 +9,19 @@ from hybrid_recovery.cli.registry import command
 
 
 def _scenarios(args: argparse.Namespace):
-    from hybrid_recovery.evaluation.scenario import PROTOCOLS
+    from hybrid_recovery.evaluation.scenario import PROTOCOLS, check_pose
 
-    fn = PROTOCOLS[args.protocol]
     kwargs = {"seed": args.seed}
     if args.duration is not None:
         kwargs["duration"] = args.duration
-    if args.protocol == "poses":
-        return fn(args.trials, **kwargs)
-    if args.protocol == "sweep":
-        if args.poses:
-            kwargs["poses"] = tuple(args.poses)
-        return fn(args.trials, **kwargs)
-    return fn(args.trials, **kwargs)
+    if args.poses:
+        if args.protocol == "pushes":
+            raise SystemExit("eval: --poses restricts the poses and sweep protocols; "
+                             "pushes start from standing")
+        for pose in args.poses:
+            check_pose(pose)
+        kwargs["poses"] = tuple(args.poses)
+    return PROTOCOLS[args.protocol](args.trials, **kwargs)
 
 
 def _run(args: argparse.Namespace, controller: str, out: Path) -> list[dict]:
@@ -61,7 +61,7 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--protocol", choices=["poses", "sweep", "pushes"], default="poses")
     p.add_argument("--trials", type=int, default=100,
                    help="poses: trials in all; sweep/pushes: trials per cell")
-    p.add_argument("--poses", nargs="*", default=None, help="sweep: restrict the poses")
+    p.add_argument("--poses", nargs="*", default=None, help="poses, sweep: only these start poses")
     p.add_argument("--duration", type=float, default=None, help="trial length [s]")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--model", default=None, help="another robot MJCF (sim-to-sim)")
