@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 import torch
 
+from hybrid_recovery.dynamics import GRAVITY
 from hybrid_recovery.robot.constants import DEFAULT_JOINT_POS
 from hybrid_recovery.training import TrainConfig, train
 
@@ -109,3 +110,31 @@ def test_no_bridge_level_rises_holding_its_joints(run, monkeypatch):
     assert out["torque_scale"] == pytest.approx(2.0) and out["episodes"] == EPISODES
     with pytest.raises(ValueError, match="torque-scale"):
         module.probe(run, 2, EPISODES, 3, "squatting", "sitting", torque_scale=0.5)
+
+
+def test_assisted_pose_probe_pulls_at_each_fraction_and_never_anneals(run, monkeypatch):
+    module = _script("probe_assisted_poses")
+    pulls: dict[float, list[np.ndarray]] = {}
+
+    def holding_first(env, actor, first=module.first_episodes):
+        holder, seen = Holder(env), pulls.setdefault(env.assist.fraction, [])
+
+        def act(obs):
+            # the torso's vertical force of the step before, over the robot's weight m g
+            seen.append(env.xfrc[:, env.torso, 2] / (env._state["mass"] * GRAVITY))
+            return holder(obs)
+
+        return first(env, act)
+
+    monkeypatch.setattr(module, "first_episodes", holding_first)
+    out = module.probe(run, "kneeling", [0.0, 0.6], EPISODES, 3)
+    assert out["stood_up_by_fraction"] == {"0": 0.0, "0.6": 0.0}
+    assert out["pose"] == "kneeling" and out["mode"] == "pull" and out["episodes"] == EPISODES
+    unassisted, pulled = np.stack(pulls[0.0][1:]), np.stack(pulls[0.6][1:])
+    assert np.all(unassisted == 0.0)
+    # a kneeling torso is upright: the pull acts (0.6 m g) whenever no push does
+    assert np.median(pulled) == pytest.approx(0.6, abs=1e-3)
+    with pytest.raises(ValueError, match="unknown pose"):
+        module.probe(run, "lotus", [0.0], EPISODES, 3)
+    with pytest.raises(ValueError, match="fractions"):
+        module.probe(run, "kneeling", [1.0], EPISODES, 3)
