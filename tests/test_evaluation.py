@@ -168,6 +168,30 @@ def test_tiny_sweep_runs_resumes_and_reports(tmp_path):
     assert all(isinstance(r["stuck_low"], bool) for r in rows) and "stuck low" in text
 
 
+def test_a_results_file_is_resumed_only_by_the_run_that_wrote_it(tmp_path):
+    scenarios = [Scenario("standing", duration=0.1, noise=0.0)]
+    results = tmp_path / "results.jsonl"
+    header = {"protocol": "poses", "trials": 1, "seed": 2, "poses": None}
+    run_protocol(scenarios, "zero", results, workers=1, header=header, progress=False)
+    before = results.read_text()
+    # trial keys name the scenario only: without the check these would be "done" already
+    with pytest.raises(ValueError, match="another run \\(controller: 'zero' there, 'learned'"):
+        run_protocol(scenarios, "learned", results, workers=1, header=header, progress=False)
+    with pytest.raises(ValueError, match="another run \\(protocol"):
+        run_protocol(scenarios, "zero", results, workers=1,
+                     header={**header, "protocol": "sweep"}, progress=False)
+    with pytest.raises(ValueError, match="another run \\(poses"):
+        run_protocol(scenarios, "zero", results, workers=1,
+                     header={**header, "poses": ["standing"]}, progress=False)
+    assert results.read_text() == before
+    rows = run_protocol(scenarios, "zero", results, workers=1, header=header, progress=False)
+    assert len(rows) == 1 and results.read_text() == before
+    stray = tmp_path / "stray.jsonl"
+    stray.write_text('{"key": "standing|0"}\n')
+    with pytest.raises(ValueError, match="no header"):
+        run_protocol(scenarios, "zero", stray, workers=1, progress=False)
+
+
 def test_capture_point_figure_from_a_recorded_push(tmp_path):
     from hybrid_recovery.evaluation.controllers import make_controller
     from hybrid_recovery.evaluation.report import capture_point_figure

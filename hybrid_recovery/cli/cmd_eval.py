@@ -27,7 +27,8 @@ def _scenarios(args: argparse.Namespace):
 def _run(args: argparse.Namespace, controller: str, out: Path) -> list[dict]:
     from hybrid_recovery.evaluation import run_protocol
 
-    header = {"protocol": args.protocol, "trials": args.trials, "seed": args.seed}
+    header = {"protocol": args.protocol, "trials": args.trials, "seed": args.seed,
+              "poses": list(args.poses) if args.poses else None, "duration": args.duration}
     return run_protocol(_scenarios(args), controller, out / "results.jsonl",
                         model_path=args.model, contact=args.contact, workers=args.workers,
                         header=header)

@@ -39,6 +39,28 @@ def completed_keys(results: Path) -> set[str]:
     return keys
 
 
+def check_same_run(results: Path, meta: dict) -> None:
+    """Refuses to resume ``results`` for a run other than the one its header describes.
+
+    Args:
+        results: an existing results file.
+        meta: the header the run would write to a new file.
+
+    Raises:
+        ValueError: naming the first field that differs (or the missing header).
+    """
+    rows = load_results(results)
+    if not rows or rows[0].get("key") != "__header__":
+        raise ValueError(f"{results} is not a results file of this harness (no header); "
+                         "choose another --out or remove it")
+    old = rows[0]
+    for field in sorted(set(old) | set(meta)):
+        if old.get(field) != meta.get(field):
+            raise ValueError(
+                f"{results} holds another run ({field}: {old.get(field)!r} there, "
+                f"{meta.get(field)!r} now); choose another --out or remove it to start anew")
+
+
 def load_results(results: str | Path) -> list[dict]:
     """All complete result rows of a JSON-lines results file."""
     rows = []
@@ -79,22 +101,30 @@ def run_protocol(scenarios: list[Scenario], controller: str, results: str | Path
     """Runs every scenario not yet in ``results`` and appends one JSON line per trial.
 
     A killed run resumes where it stopped: finished trials are skipped by key. The first
-    line of a new file is a header with the protocol's configuration and seed.
+    line of a new file is a header with the controller (and its policy's provenance), the
+    model, the contact setting and ``header`` (the protocol's configuration and seed); an
+    existing file is resumed only if its header is the same, since trial keys name the
+    scenario, not who ran it.
 
     Returns:
         All result rows of the file (old and new).
+
+    Raises:
+        ValueError: ``results`` exists but holds another run (or no header).
     """
     results = Path(results)
     results.parent.mkdir(parents=True, exist_ok=True)
     built = make_controller(controller)  # fail fast on a bad spec, before forking
+    meta = {"key": "__header__", "controller": controller, "model": model_path,
+            "contact": contact, **(header or {})}
+    if (policy := policy_provenance(built)) is not None:
+        meta["policy"] = policy
+    if results.is_file():
+        check_same_run(results, meta)
+    else:
+        results.write_text(json.dumps(meta) + "\n")
     done = completed_keys(results)
     todo = [s for s in scenarios if s.key not in done]
-    if not results.is_file():
-        meta = {"key": "__header__", "controller": controller, "model": model_path,
-                "contact": contact, **(header or {})}
-        if (policy := policy_provenance(built)) is not None:
-            meta["policy"] = policy
-        results.write_text(json.dumps(meta) + "\n")
     start, count, shown = time.time(), 0, 0.0
     with results.open("a") as out:
         if results.read_bytes()[-1:] not in (b"", b"\n"):
