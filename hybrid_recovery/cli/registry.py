@@ -23,7 +23,9 @@ def command(name: str, help_text: str):
 
 
 def parse_overrides(items: Sequence[str]) -> dict:
-    """``key=value`` pairs; values parsed as JSON when they can be (numbers, lists, true)."""
+    """``key=value`` pairs; values parsed as JSON when they can be (numbers, lists, true),
+    else kept as strings. A value that opens a JSON list or object must be one: a bare
+    ``[a, b]`` is refused rather than read as a string of characters."""
     out = {}
     for item in items:
         if "=" not in item:
@@ -31,6 +33,10 @@ def parse_overrides(items: Sequence[str]) -> dict:
         key, raw = item.split("=", 1)
         try:
             out[key] = json.loads(raw)
-        except json.JSONDecodeError:
+        except json.JSONDecodeError as err:
+            if raw.lstrip()[:1] in ("[", "{"):
+                raise SystemExit(f"override '{item}': the value is not valid JSON ({err.msg}); "
+                                 "quote strings in lists, e.g. "
+                                 "assist.poses='[\"supine\", \"prone\"]'") from None
             out[key] = raw
     return out
