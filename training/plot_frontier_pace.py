@@ -3,11 +3,12 @@
 Reads a fork and the runs it descends from (oldest first, :func:`load_lineage`) and, for
 each bridge, fits a straight line to its level (``bridge_blend/<pose>`` × ``bridge.levels``)
 over the iterations from ``--since`` on; the fit's slope says how many iterations, env
-steps and hours of one training process (at the run's own seconds per iteration over
-the same window) the bridge would need to reach the target pose itself, if the pace held.
-The pull on the supine and prone starts (``curriculum/assist_fraction``) is annealed by
-``assist.decay`` per advance; its advances over the same window give the same estimate
-for the pull to reach ``assist.floor``. Writes a PNG and prints a Markdown table.
+steps and hours of one training process (at the run's seconds per iteration over its
+last 500 iterations) the bridge would need to reach the target pose itself, if the pace held.
+The pull on the starts of ``assist.poses`` (``curriculum/assist_fraction``) is annealed
+by ``assist.decay`` per advance; its advances over the same window give the same estimate
+for the pull to reach ``assist.floor``. A bridge added after ``--since`` is fitted from its
+own first logged iteration. Writes a PNG and prints a Markdown table.
 
     python training/plot_frontier_pace.py training/checkpoints/{full_se,full_bridge,\\
         full_bridge_feet,full_bridge_explore,full_bridge_focus} --since 3600 \\
@@ -54,7 +55,8 @@ def main() -> None:
     per_iteration = train["num_envs"] * train["num_steps_per_env"]
     _, last = logged_iterations(scalars)
     times = [scalars[t] for t in ("Perf/collection_time", "Perf/learning_time") if t in scalars]
-    seconds = sum(float(np.mean(v[s >= args.since])) for s, v in times)
+    recent = last - 499  # hours at the current pace of one process, not the window's
+    seconds = sum(float(np.mean(v[s >= recent])) for s, v in times)
 
     fig, axes = plt.subplots(1, 2, figsize=(13, 4.2))
     rows = []
@@ -73,7 +75,7 @@ def main() -> None:
         means = [level[index == i].mean() for i in np.unique(index)]
         axes[0].plot(centres, means, color=f"C{k}", lw=1.2, label=f"{target} (mean of {block})")
         reach = min(at_target, last + 40000)
-        xs = np.array([args.since, reach])
+        xs = np.array([max(args.since, steps.min()), reach])
         axes[0].plot(xs, slope * xs + intercept, color=f"C{k}", ls="--", lw=1,
                      label=f"fit from {args.since}: {slope * 1000:.2f} levels / 1000 it")
     axes[0].axhline(levels, color="k", lw=0.8)
@@ -115,7 +117,8 @@ def main() -> None:
     fig.savefig(args.out, dpi=90)
     plt.close(fig)
 
-    print(f"iterations {args.since}–{last}; {seconds:.1f} s per iteration of one process")
+    print(f"iterations {args.since}–{last}; {seconds:.1f} s per iteration of one process "
+          f"(mean of {recent}–{last})")
     print("| frontier | now | pace | iterations to the end at that pace | env steps | hours |")
     print("|---|---|---|---|---|---|")
     for name, now, pace, left in rows:
