@@ -1,14 +1,15 @@
 """The pace of the start-pose frontier along a lineage of runs, and where it would end.
 
 Reads a fork and the runs it descends from (oldest first, :func:`load_lineage`) and, for
-each bridge, fits a straight line to its level (``bridge_blend/<pose>`` × ``bridge.levels``)
-over the iterations from ``--since`` on; the fit's slope says how many iterations, env
-steps and hours of one training process (at the run's seconds per iteration over its
-last 500 iterations) the bridge would need to reach the target pose itself, if the pace held.
-The pull on the starts of ``assist.poses`` (``curriculum/assist_fraction``) is annealed
-by ``assist.decay`` per advance; its advances over the same window give the same estimate
-for the pull to reach ``assist.floor``. A bridge added after ``--since`` is fitted from its
-own first logged iteration. Writes a PNG and prints a Markdown table.
+each bridge logged along it, fits a straight line to its level (``bridge_blend/<pose>`` ×
+``bridge.levels``) over the iterations from ``--since`` on (a bridge added later: from
+its own first logged iteration); the fit's slope says how many iterations, env steps and
+hours of one training process (at the run's seconds per iteration over its last 500
+iterations) the bridge would need to reach the target pose itself, if the pace held. A
+bridge no longer in ``bridge.pairs`` is drawn up to its end, not estimated. The pull on
+the starts of ``assist.poses`` (``curriculum/assist_fraction``) is annealed by
+``assist.decay`` per advance; its advances over the same window give the same estimate
+for the pull to reach ``assist.floor``. Writes a PNG and prints a Markdown table.
 
     python training/plot_frontier_pace.py training/checkpoints/{full_se,full_bridge,\\
         full_bridge_feet,full_bridge_explore,full_bridge_focus} --since 3600 \\
@@ -60,14 +61,22 @@ def main() -> None:
 
     fig, axes = plt.subplots(1, 2, figsize=(13, 4.2))
     rows = []
-    for k, (_, target) in enumerate(env["bridge"]["pairs"]):
+    current = {target for _, target in env["bridge"]["pairs"]}
+    logged = sorted(t.split("/", 1)[1] for t in scalars if t.startswith("bridge_blend/"))
+    for k, target in enumerate(logged):
         steps, blend = scalars[f"bridge_blend/{target}"]
         level = blend * levels
-        slope, intercept = fit_pace(steps, level, args.since)
+        slope, intercept = fit_pace(steps, level, max(args.since, int(steps.min())))
         at_target = (levels - intercept) / slope if slope > 0 else math.inf
-        rows.append((f"bridge to {target} (level / {levels})",
-                     f"{level[steps >= last - 249].mean():.2f}", f"{slope * 1000:.3f} per 1000",
-                     at_target - last))
+        if target in current:
+            rows.append((f"bridge to {target} (level / {levels})",
+                         f"{level[steps >= last - 249].mean():.2f}",
+                         f"{slope * 1000:.3f} per 1000", at_target - last))
+        else:  # a bridge taken out of bridge.pairs: drawn up to its end, not estimated
+            at_target = steps.max()
+            rows.append((f"bridge to {target} (ended at {steps.max()})",
+                         f"{level[steps >= steps.max() - 249].mean():.2f}",
+                         f"{slope * 1000:.3f} per 1000", math.nan))
         block = 50
         edges = np.arange(steps.min(), steps.max() + block, block)
         index = np.digitize(steps, edges)
@@ -77,7 +86,7 @@ def main() -> None:
         reach = min(at_target, last + 40000)
         xs = np.array([max(args.since, steps.min()), reach])
         axes[0].plot(xs, slope * xs + intercept, color=f"C{k}", ls="--", lw=1,
-                     label=f"fit from {args.since}: {slope * 1000:.2f} levels / 1000 it")
+                     label=f"fit from {xs[0]}: {slope * 1000:.2f} levels / 1000 it")
     axes[0].axhline(levels, color="k", lw=0.8)
     axes[0].annotate(f"the target pose ({levels}/{levels})", (args.since, levels),
                      fontsize=8, va="bottom")
@@ -122,7 +131,9 @@ def main() -> None:
     print("| frontier | now | pace | iterations to the end at that pace | env steps | hours |")
     print("|---|---|---|---|---|---|")
     for name, now, pace, left in rows:
-        if math.isinf(left):
+        if math.isnan(left):
+            print(f"| {name} | {now} | {pace} | – (the bridge ended) | – | – |")
+        elif math.isinf(left):
             print(f"| {name} | {now} | {pace} | never | – | – |")
         else:
             print(f"| {name} | {now} | {pace} | {left:,.0f} | {left * per_iteration / 1e6:,.0f} M "
