@@ -66,25 +66,21 @@ def main() -> None:
     for k, target in enumerate(logged):
         steps, blend = scalars[f"bridge_blend/{target}"]
         level = blend * levels
-        slope, intercept = fit_pace(steps, level, max(args.since, int(steps.min())))
+        start, end = max(args.since, int(steps.min())), int(steps.max())
+        slope, intercept = fit_pace(steps, level, start)
         at_target = (levels - intercept) / slope if slope > 0 else math.inf
-        if target in current:
-            rows.append((f"bridge to {target} (level / {levels})",
-                         f"{level[steps >= last - 249].mean():.2f}",
-                         f"{slope * 1000:.3f} per 1000", at_target - last))
-        else:  # a bridge taken out of bridge.pairs: drawn up to its end, not estimated
-            at_target = steps.max()
-            rows.append((f"bridge to {target} (ended at {steps.max()})",
-                         f"{level[steps >= steps.max() - 249].mean():.2f}",
-                         f"{slope * 1000:.3f} per 1000", math.nan))
+        ended = target not in current  # taken out of bridge.pairs: drawn to its end only
+        rows.append((f"bridge to {target} " + (f"(ended at {end})" if ended
+                                               else f"(level / {levels})"),
+                     f"{level[steps >= end - 249].mean():.2f}", f"{slope * 1000:.3f} per 1000",
+                     math.nan if ended else at_target - last))
         block = 50
         edges = np.arange(steps.min(), steps.max() + block, block)
         index = np.digitize(steps, edges)
         centres = [steps[index == i].mean() for i in np.unique(index)]
         means = [level[index == i].mean() for i in np.unique(index)]
         axes[0].plot(centres, means, color=f"C{k}", lw=1.2, label=f"{target} (mean of {block})")
-        reach = min(at_target, last + 40000)
-        xs = np.array([max(args.since, steps.min()), reach])
+        xs = np.array([start, end if ended else min(at_target, last + 40000)])
         axes[0].plot(xs, slope * xs + intercept, color=f"C{k}", ls="--", lw=1,
                      label=f"fit from {xs[0]}: {slope * 1000:.2f} levels / 1000 it")
     axes[0].axhline(levels, color="k", lw=0.8)
