@@ -192,3 +192,16 @@ def test_a_lineage_without_scalars_is_refused(tmp_path):
         read_lineage([tmp_path / "empty"])
     with pytest.raises(ValueError, match="no run directories"):
         read_lineage([])
+
+
+def test_the_per_pose_panel_is_a_longer_running_mean(tmp_path, monkeypatch):
+    _fake_run(tmp_path)
+    windows = {}
+    real_draw = record_module._draw
+    monkeypatch.setattr(record_module, "_draw",
+                        lambda ax, scalar, *a, window=10, **k: (
+                            windows.setdefault(ax.get_title().split(" (")[0], set()).add(window),
+                            real_draw(ax, scalar, *a, window=window, **k)))
+    plot_curves(tmp_path, tmp_path / "curves.png")
+    assert windows.pop("stood up, by start pose") == {record_module.POSE_WINDOW}
+    assert windows and all(w == {10} for w in windows.values())

@@ -160,10 +160,16 @@ def _without_outcomes(state: dict | None) -> dict | None:
     return None if state is None else {k: v for k, v in state.items() if k != "outcomes"}
 
 
-def _draw(ax, scalar: tuple[np.ndarray, np.ndarray], per_iteration: int, **style) -> None:
-    """One scalar against env steps [millions], as a running mean of 10 iterations."""
+POSE_WINDOW = 100
+"""Iterations in the running mean of the per-pose panel: a pose's rate is the mean of the
+few of its episodes that end in one iteration, and seven poses share the panel."""
+
+
+def _draw(ax, scalar: tuple[np.ndarray, np.ndarray], per_iteration: int, window: int = 10,
+          **style) -> None:
+    """One scalar against env steps [millions], as a running mean of ``window`` iterations."""
     steps, values = scalar
-    k = min(10, len(values))
+    k = min(window, len(values))
     smooth = np.convolve(values, np.ones(k) / k, mode="valid")
     ax.plot(steps[k - 1:] * per_iteration / 1e6, smooth, lw=1.4, **style)
 
@@ -227,8 +233,8 @@ def plot_curves(runs: str | Path | Mapping[str, Lineage], out: str | Path,
         if by_pose and pose_tags and not last.lines:  # the first run that logs them
             last.set_title(f"stood up, by start pose ({name})", fontsize=9)
             for k, tag in enumerate(pose_tags):
-                _draw(last, scalars[tag], per_iteration, label=tag.split("/")[1],
-                      color=f"C{k}")
+                _draw(last, scalars[tag], per_iteration, window=POSE_WINDOW,
+                      label=tag.split("/")[1], color=f"C{k}")
         for number, amendment in enumerate(meta.get("amendments", []), 1):
             if not lo <= amendment["iteration"] <= hi:
                 continue
@@ -240,8 +246,9 @@ def plot_curves(runs: str | Path | Mapping[str, Lineage], out: str | Path,
     for ax in axes.flat:
         if ax.lines:
             ax.legend(fontsize=7)
-    fig.suptitle((title or "; ".join(sizes)) + " (mean of 10 iterations; A<n>: the run's "
-                 "amendments, see its config.json)", fontsize=10)
+    fig.suptitle((title or "; ".join(sizes)) + " (mean of 10 iterations"
+                 + (f", {POSE_WINDOW} by start pose" if by_pose else "")
+                 + "; A<n>: the run's amendments, see its config.json)", fontsize=10)
     fig.tight_layout()
     fig.savefig(out, dpi=90)
     plt.close(fig)
