@@ -82,7 +82,7 @@ def main() -> None:
         axes[0].plot(centres, means, color=f"C{k}", lw=1.2, label=f"{target} (mean of {block})")
         xs = np.array([start, end if ended else min(at_target, last + 40000)])
         axes[0].plot(xs, slope * xs + intercept, color=f"C{k}", ls="--", lw=1,
-                     label=f"fit from {xs[0]}: {slope * 1000:.2f} levels / 1000 it")
+                     label=f"fit from {xs[0]:.0f}: {slope * 1000:.2f} levels / 1000 it")
     axes[0].axhline(levels, color="k", lw=0.8)
     axes[0].annotate(f"the target pose ({levels}/{levels})", (args.since, levels),
                      fontsize=8, va="bottom")
