@@ -199,9 +199,9 @@ def test_the_per_pose_panel_is_a_longer_running_mean(tmp_path, monkeypatch):
     windows = {}
     real_draw = record_module._draw
     monkeypatch.setattr(record_module, "_draw",
-                        lambda ax, scalar, *a, window=10, **k: (
+                        lambda ax, scalar, *a, window=record_module.WINDOW, **k: (
                             windows.setdefault(ax.get_title().split(" (")[0], set()).add(window),
                             real_draw(ax, scalar, *a, window=window, **k)))
     plot_curves(tmp_path, tmp_path / "curves.png")
     assert windows.pop("stood up, by start pose") == {record_module.POSE_WINDOW}
-    assert windows and all(w == {10} for w in windows.values())
+    assert windows and all(w == {record_module.WINDOW} for w in windows.values())

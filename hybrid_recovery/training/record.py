@@ -160,12 +160,15 @@ def _without_outcomes(state: dict | None) -> dict | None:
     return None if state is None else {k: v for k, v in state.items() if k != "outcomes"}
 
 
+WINDOW = 10
+"""Iterations in the running mean of every panel but the per-pose one."""
+
 POSE_WINDOW = 100
 """Iterations in the running mean of the per-pose panel: a pose's rate is the mean of the
 few of its episodes that end in one iteration, and seven poses share the panel."""
 
 
-def _draw(ax, scalar: tuple[np.ndarray, np.ndarray], per_iteration: int, window: int = 10,
+def _draw(ax, scalar: tuple[np.ndarray, np.ndarray], per_iteration: int, window: int = WINDOW,
           **style) -> None:
     """One scalar against env steps [millions], as a running mean of ``window`` iterations."""
     steps, values = scalar
@@ -246,7 +249,7 @@ def plot_curves(runs: str | Path | Mapping[str, Lineage], out: str | Path,
     for ax in axes.flat:
         if ax.lines:
             ax.legend(fontsize=7)
-    fig.suptitle((title or "; ".join(sizes)) + " (mean of 10 iterations"
+    fig.suptitle((title or "; ".join(sizes)) + f" (mean of {WINDOW} iterations"
                  + (f", {POSE_WINDOW} by start pose" if by_pose else "")
                  + "; A<n>: the run's amendments, see its config.json)", fontsize=10)
     fig.tight_layout()
