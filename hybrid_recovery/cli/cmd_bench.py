@@ -12,8 +12,8 @@ def _bench(args: argparse.Namespace) -> int:
 
     options = {"n": args.n, "repeat": args.repeat, "seed": args.seed}
     if args.set:
-        if args.what != "env":
-            raise SystemExit("--set applies to 'bench env' only")
+        if args.what not in ("env", "train"):
+            raise SystemExit("--set applies to 'bench env' and 'bench train' only")
         options["overrides"] = parse_overrides(args.set)
     result = BENCHES[args.what](**{k: v for k, v in options.items() if v is not None})
     print(result.table())
@@ -30,7 +30,9 @@ def _configure_bench(p: argparse.ArgumentParser) -> None:
     p.add_argument("--repeat", type=int, default=None, help="timed runs, the best is kept")
     p.add_argument("--seed", type=int, default=None)
     p.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
-                   help="EnvConfig overrides for 'bench env', e.g. physics_dt=0.01 decimation=2")
+                   help="'bench env': EnvConfig overrides, e.g. physics_dt=0.01 decimation=2; "
+                        "'bench train': TrainConfig settings, e.g. torch_threads=1 "
+                        "ppo.mixed_precision=true ppo.num_mini_batches=2")
 
 
 _bench.configure = _configure_bench  # type: ignore[attr-defined]

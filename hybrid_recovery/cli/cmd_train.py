@@ -13,9 +13,11 @@ def _train(args: argparse.Namespace) -> int:
 
     cfg = TrainConfig(variant=args.variant, num_envs=args.num_envs, iterations=args.iterations,
                       seed=args.seed, save_interval=args.save_interval,
-                      num_threads=args.threads, init_std=args.init_std, max_std=args.max_std,
+                      num_threads=args.threads, torch_threads=args.torch_threads,
+                      init_std=args.init_std, max_std=args.max_std,
                       env_overrides=parse_overrides(args.set))
     cfg.ppo.symmetry = args.symmetry
+    cfg.ppo.mixed_precision = args.mixed_precision
     run_dir = Path(args.run_dir or f"runs/{args.variant}")
     train(run_dir, cfg, resume=args.resume, amend=parse_overrides(args.amend),
           follow=args.follow)
@@ -30,11 +32,16 @@ def _configure_train(p: argparse.ArgumentParser) -> None:
                    help="total PPO iterations of the run (the paper: 50,000)")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--save-interval", type=int, default=50)
-    p.add_argument("--threads", type=int, default=2)
+    p.add_argument("--threads", type=int, default=2,
+                   help="physics threads, and torch threads unless --torch-threads is given")
+    p.add_argument("--torch-threads", type=int, default=None,
+                   help="torch threads for inference and the PPO update (default: --threads)")
     p.add_argument("--run-dir", default=None, help="default: runs/<variant>")
     p.add_argument("--resume", action="store_true",
                    help="continue the run in --run-dir with its saved settings")
     p.add_argument("--symmetry", action="store_true", help="left/right mirror augmentation")
+    p.add_argument("--mixed-precision", action="store_true",
+                   help="bf16 autocast for the PPO update (float32 weights and optimiser)")
     p.add_argument("--init-std", type=float, default=1.0,
                    help="initial action noise std (the paper: 1.0)")
     p.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",

@@ -104,14 +104,15 @@ def policy_meta(cfg: TrainConfig, env_cfg: EnvConfig, critic_dim: int) -> dict:
 
 def _resumed_config(run_dir: Path, cfg: TrainConfig) -> TrainConfig:
     """The run's own saved TrainConfig (a resume continues the same run), keeping only
-    ``iterations`` and ``num_threads`` from ``cfg``."""
+    ``iterations`` and the thread counts from ``cfg``."""
     path = run_dir / "config.json"
     if not path.is_file():
         return cfg
     saved = train_config_from_dict(json.loads(path.read_text())["train_config"])
-    saved.iterations, saved.num_threads = cfg.iterations, cfg.num_threads
-    if dataclasses.replace(saved, iterations=0, num_threads=0) != \
-            dataclasses.replace(cfg, iterations=0, num_threads=0):
+    machine = {"iterations": cfg.iterations, "num_threads": cfg.num_threads,
+               "torch_threads": cfg.torch_threads}
+    saved = dataclasses.replace(saved, **machine)
+    if saved != cfg:
         print(f"[hybrid-recovery] resuming with the run's saved settings ({path}); "
               "options given now other than iterations and threads are ignored", flush=True)
     return saved
@@ -185,7 +186,7 @@ def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
             print(f"[hybrid-recovery] amending the run's settings: {amend}", flush=True)
     run_dir.mkdir(parents=True, exist_ok=True)
     torch.manual_seed(cfg.seed)
-    torch.set_num_threads(cfg.num_threads)
+    torch.set_num_threads(cfg.torch_threads or cfg.num_threads)
     env_cfg = make_env_config(cfg)
     env = RecoveryEnv(env_cfg)
     critic_dim = int(env.get_observations()["critic"].shape[1])
