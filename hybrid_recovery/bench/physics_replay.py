@@ -24,6 +24,8 @@ class PhysicsReplay:
     def __init__(self, env) -> None:
         self.env = env
         self.inputs: list[tuple[np.ndarray, np.ndarray]] = []
+        self.replayed: dict[str, np.ndarray] = {}
+        """The Batch's state where the last replay ended (field → (nsim, ...) array)."""
         self._start: dict[str, np.ndarray] = {}
         physics = env._physics
 
@@ -54,6 +56,7 @@ class PhysicsReplay:
             env.ctrl[:], env.xfrc[:] = ctrl, xfrc
             env.sims.step(nstep=env.cfg.decimation, stage=mujoco.mjtStage.mjSTAGE_VEL)
         elapsed = time.perf_counter() - t
+        self.replayed = self._snapshot()
         self._restore(end)  # the env carries on from its own state
         return elapsed
 

@@ -109,9 +109,8 @@ def _resumed_config(run_dir: Path, cfg: TrainConfig) -> TrainConfig:
     if not path.is_file():
         return cfg
     saved = train_config_from_dict(json.loads(path.read_text())["train_config"])
-    machine = {"iterations": cfg.iterations, "num_threads": cfg.num_threads,
-               "torch_threads": cfg.torch_threads}
-    saved = dataclasses.replace(saved, **machine)
+    saved = dataclasses.replace(saved, iterations=cfg.iterations, num_threads=cfg.num_threads,
+                                torch_threads=cfg.torch_threads)
     if saved != cfg:
         print(f"[hybrid-recovery] resuming with the run's saved settings ({path}); "
               "options given now other than iterations and threads are ignored", flush=True)
