@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import pkgutil
 import sys
 from collections.abc import Sequence
@@ -22,7 +23,22 @@ def _register_all() -> None:
             importlib.import_module(f"hybrid_recovery.cli.{info.name}")
 
 
+OMP_WAIT_POLICY = "PASSIVE"
+"""The OpenMP wait policy the CLI gives torch unless ``OMP_WAIT_POLICY`` is already set.
+
+torch's OpenMP threads (libgomp) otherwise spin at every barrier, which on a shared
+2-core machine takes the cores from the physics threads and the other processes:
+``bench train`` at load 11 measured the PPO update at 27.8 s per iteration with 2 spinning
+threads, 4.7 s with PASSIVE (see ``training/README.md``, training throughput). libgomp
+reads the variable once, when torch loads, so it is set before any subcommand runs."""
+
+
+def _set_openmp_wait_policy() -> None:
+    os.environ.setdefault("OMP_WAIT_POLICY", OMP_WAIT_POLICY)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
+    _set_openmp_wait_policy()
     _register_all()
 
     parser = argparse.ArgumentParser(prog="hybrid-recovery", description=__doc__)
