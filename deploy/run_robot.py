@@ -17,8 +17,8 @@ import json
 import sys
 
 from hybrid_recovery.deploy.bridge import run_controller
-from hybrid_recovery.deploy.limits import SafetyLimits
 from hybrid_recovery.deploy.state_machine import SafetyConfig
+from hybrid_recovery.robot.limits import SafetyLimits
 
 
 def main(argv: list[str] | None = None) -> int:

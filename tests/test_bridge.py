@@ -9,7 +9,7 @@ import pytest
 from hybrid_recovery.envs import RecoveryEnv, default_config
 from hybrid_recovery.envs.bridge import PoseBridge, blend_pose
 from hybrid_recovery.envs.config import BridgeConfig
-from hybrid_recovery.envs.initial_states import POSE_LIBRARY, POSES
+from hybrid_recovery.sim.initial_states import POSE_LIBRARY, POSES
 from hybrid_recovery.training.checkpoint import atomic_save, load_checkpoint
 from hybrid_recovery.training.config import TrainConfig
 from hybrid_recovery.training.runner import train

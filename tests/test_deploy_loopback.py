@@ -45,7 +45,7 @@ def _report(proc: subprocess.Popen, deadline: float, others: list[subprocess.Pop
 @pytest.mark.dds
 def test_controller_stands_the_simulated_robot_up_over_loopback(tmp_path):
     pytest.importorskip("cyclonedds", reason="cyclonedds (extra 'deploy') not installed")
-    from hybrid_recovery.deploy.stand_in import write_stand_in_policy
+    from hybrid_recovery.training.stand_in import write_stand_in_policy
 
     policy = write_stand_in_policy(tmp_path / "zero", "zero")
     domain = str(random.SystemRandom().randint(1, 200))
@@ -85,7 +85,7 @@ def test_controller_stands_the_simulated_robot_up_over_loopback(tmp_path):
 def test_no_robot_gives_a_clear_timeout(tmp_path):
     pytest.importorskip("cyclonedds", reason="cyclonedds (extra 'deploy') not installed")
     from hybrid_recovery.deploy.bridge import run_controller
-    from hybrid_recovery.deploy.stand_in import write_stand_in_policy
+    from hybrid_recovery.training.stand_in import write_stand_in_policy
 
     policy = write_stand_in_policy(tmp_path / "zero", "zero")
     domain = random.SystemRandom().randint(1, 200)

@@ -18,13 +18,13 @@ from tensordict import TensorDict
 
 from hybrid_recovery.deploy.policy_runner import ACTION_CLIP, PolicyMismatchError, PolicyRunner
 from hybrid_recovery.deploy.robot_io import RobotState
-from hybrid_recovery.deploy.stand_in import write_stand_in_policy
 from hybrid_recovery.envs import RecoveryEnv
 from hybrid_recovery.observation import ACTOR_OBS_DIM
 from hybrid_recovery.robot import constants
 from hybrid_recovery.training import TrainConfig, load_checkpoint, train
 from hybrid_recovery.training.export import actor_from_checkpoint, export_policy
 from hybrid_recovery.training.runner import make_env_config
+from hybrid_recovery.training.stand_in import write_stand_in_policy
 
 FAST = {"curriculum.window": 8, "curriculum.advance_success": 0.0}
 

@@ -8,7 +8,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hybrid_recovery.deploy.limits import SafetyLimits
 from hybrid_recovery.deploy.robot_io import RobotState
 from hybrid_recovery.deploy.state_machine import (
     Fault,
@@ -18,6 +17,7 @@ from hybrid_recovery.deploy.state_machine import (
     SafetyStateMachine,
 )
 from hybrid_recovery.robot import constants
+from hybrid_recovery.robot.limits import SafetyLimits
 
 N = constants.NUM_JOINTS
 DT = 0.02

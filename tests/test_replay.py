@@ -9,8 +9,8 @@ import torch
 from hybrid_recovery.dynamics import GRAVITY
 from hybrid_recovery.envs import RecoveryEnv, default_config
 from hybrid_recovery.envs.config import ReplayConfig
-from hybrid_recovery.envs.initial_states import POSES
 from hybrid_recovery.envs.replay import StartReplay
+from hybrid_recovery.sim.initial_states import POSES
 
 NQ, NV = 3, 2
 

@@ -16,9 +16,9 @@ import pytest
 import torch
 
 from hybrid_recovery.envs import RecoveryEnv
-from hybrid_recovery.envs.initial_states import POSES
 from hybrid_recovery.envs.rewards import CAPTURE_POINT_TERMS
 from hybrid_recovery.observation import ACTOR_OBS_DIM
+from hybrid_recovery.sim.initial_states import POSES
 from hybrid_recovery.training import TrainConfig, load_checkpoint, train
 from hybrid_recovery.training.config import train_config_from_dict
 from hybrid_recovery.training.export import (

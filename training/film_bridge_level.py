@@ -23,7 +23,7 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
 
-from hybrid_recovery.envs.render import BalanceRenderer, add_overlay, balance_overlay  # noqa: E402
+from hybrid_recovery.sim.render import BalanceRenderer, add_overlay, balance_overlay  # noqa: E402
 from hybrid_recovery.training.probe import (  # noqa: E402
     bridge_env,
     bridge_probe_parser,

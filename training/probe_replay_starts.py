@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from hybrid_recovery.envs.initial_states import POSES
+from hybrid_recovery.sim.initial_states import POSES
 from hybrid_recovery.training.export import actor_from_checkpoint
 from hybrid_recovery.training.probe import first_episodes, training_env
 

@@ -9,7 +9,7 @@ from hybrid_recovery.cli.registry import command
 
 
 def _bench_deploy(args: argparse.Namespace) -> int:
-    from hybrid_recovery.deploy.bench import bench_deploy, format_bench
+    from hybrid_recovery.bench.deploy import bench_deploy, format_bench
 
     result = bench_deploy(args.seconds, args.policy, realtime=not args.no_realtime,
                           domain_id=args.domain)

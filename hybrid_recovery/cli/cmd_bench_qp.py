@@ -8,7 +8,7 @@ from hybrid_recovery.cli.main import command
 
 
 def _bench_qp(args: argparse.Namespace) -> int:
-    from hybrid_recovery.control.benchmark import push_sweep, solve_timing, sweep_table
+    from hybrid_recovery.bench.qp import push_sweep, solve_timing, sweep_table
 
     if args.what in ("timing", "all"):
         solve_timing(push_force=args.timing_push, duration=args.timing_duration)

@@ -22,12 +22,12 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from hybrid_recovery.deploy.fast_dds import FastLink
-from hybrid_recovery.deploy.limits import SafetyLimits
 from hybrid_recovery.deploy.policy_runner import PolicyRunner
 from hybrid_recovery.deploy.robot_io import RobotState
 from hybrid_recovery.deploy.state_machine import Phase, SafetyConfig, SafetyStateMachine
 from hybrid_recovery.deploy.timing import LoopStats, PeriodicClock, try_realtime
 from hybrid_recovery.deploy.wire import decode_low_state, encode_low_cmd
+from hybrid_recovery.robot.limits import SafetyLimits
 
 if TYPE_CHECKING:
     from hybrid_recovery.deploy.sim_robot import SimRobot, SimRobotConfig

@@ -26,9 +26,9 @@ import numpy as np
 
 from hybrid_recovery.deploy.robot_io import JointCommand, RobotState
 from hybrid_recovery.deploy.wire import decode_low_cmd, encode_low_state
-from hybrid_recovery.envs.scene import SensorLayout, build_scene
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.mjcf import default_qpos
+from hybrid_recovery.sim.scene import SensorLayout, build_scene
 
 
 @dataclass

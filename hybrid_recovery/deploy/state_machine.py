@@ -29,10 +29,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from hybrid_recovery.deploy.limits import SafetyLimits
 from hybrid_recovery.deploy.robot_io import JointCommand, RobotState
-from hybrid_recovery.policy.action import TARGET_RANGE_FACTOR
 from hybrid_recovery.robot import constants
+from hybrid_recovery.robot.action import TARGET_RANGE_FACTOR
+from hybrid_recovery.robot.limits import SafetyLimits
 
 _EPS = 1e-6  # [s]: a phase of 0.5 s ends on the tick at 0.5 s despite float rounding
 

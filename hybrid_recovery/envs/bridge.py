@@ -3,7 +3,7 @@ and the target, moved toward the target as the stand-up rate allows (beyond the 
 
 The blend at level k of K is the pose with joint targets q(t) = (1 − t) q_source + t
 q_target and base pitch θ(t) likewise, t = k / K, settled from a drop like every pose of
-:mod:`hybrid_recovery.envs.initial_states`; it is mirrored when either end is.
+:mod:`hybrid_recovery.sim.initial_states`; it is mirrored when either end is.
 """
 
 from __future__ import annotations
@@ -13,7 +13,7 @@ from collections import deque
 import numpy as np
 
 from hybrid_recovery.envs.config import BridgeConfig
-from hybrid_recovery.envs.initial_states import POSE_LIBRARY, POSES, Pose
+from hybrid_recovery.sim.initial_states import POSE_LIBRARY, POSES, Pose
 
 
 def blend_pose(source: Pose, target: Pose, t: float) -> Pose:

@@ -6,7 +6,7 @@ import dataclasses
 from dataclasses import dataclass, field
 from typing import Any
 
-from hybrid_recovery.policy.action import TARGET_RANGE_FACTOR
+from hybrid_recovery.robot.action import TARGET_RANGE_FACTOR
 
 
 @dataclass

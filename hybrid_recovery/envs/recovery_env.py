@@ -2,7 +2,7 @@
 
 One control step (50 Hz) = ``decimation`` physics substeps; within it each robot's PD
 targets follow its per-episode actuation delay. All MDP work is vectorised numpy over
-the batch; balance inputs are MuJoCo sensors (see :mod:`hybrid_recovery.envs.scene`)
+the batch; balance inputs are MuJoCo sensors (see :mod:`hybrid_recovery.sim.scene`)
 turned into balance quantities by :mod:`hybrid_recovery.dynamics`.
 """
 
@@ -25,21 +25,21 @@ from hybrid_recovery.envs.bridge import PoseBridge
 from hybrid_recovery.envs.config import EnvConfig, default_config
 from hybrid_recovery.envs.curriculum import Curriculum
 from hybrid_recovery.envs.domain_rand import Randomizer
-from hybrid_recovery.envs.initial_states import (
+from hybrid_recovery.envs.pushes import Pushes
+from hybrid_recovery.envs.replay import StartReplay
+from hybrid_recovery.envs.rewards import RewardState, compute_rewards
+from hybrid_recovery.envs.terminations import TERMINATIONS, StuckLow, success_step
+from hybrid_recovery.observation.actor import actor_observation, noise_halfwidths, projected_gravity
+from hybrid_recovery.robot import constants
+from hybrid_recovery.robot.action import clip_action, joint_targets
+from hybrid_recovery.robot.mjcf import default_qpos
+from hybrid_recovery.sim.initial_states import (
     POSES,
     perturb_start,
     seat_on_ground,
     settle_pool,
 )
-from hybrid_recovery.envs.pushes import Pushes
-from hybrid_recovery.envs.replay import StartReplay
-from hybrid_recovery.envs.rewards import RewardState, compute_rewards
-from hybrid_recovery.envs.scene import build_scene, read_contacts
-from hybrid_recovery.envs.terminations import TERMINATIONS, StuckLow, success_step
-from hybrid_recovery.observation.actor import actor_observation, noise_halfwidths, projected_gravity
-from hybrid_recovery.policy.action import clip_action, joint_targets
-from hybrid_recovery.robot import constants
-from hybrid_recovery.robot.mjcf import default_qpos
+from hybrid_recovery.sim.scene import build_scene, read_contacts
 
 PRIVILEGED_DIM = 17
 """CoM position (3), velocity (3), acceleration (3), p_l (3), L (3), ξ − p_c,xy (2)."""

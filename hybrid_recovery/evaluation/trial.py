@@ -11,7 +11,6 @@ import numpy as np
 
 from hybrid_recovery.dynamics.capturability import capture_point
 from hybrid_recovery.envs.config import DomainRandConfig
-from hybrid_recovery.envs.initial_states import perturb_start, seat_single, settle_pool
 from hybrid_recovery.evaluation.contact import apply_contact_preset
 from hybrid_recovery.evaluation.scenario import Scenario, check_pose
 from hybrid_recovery.evaluation.strategy import CONTACT_BODIES, label_strategy
@@ -19,6 +18,7 @@ from hybrid_recovery.evaluation.success import recovery_time, stuck_low
 from hybrid_recovery.observation import projected_gravity
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.mjcf import load_mjmodel
+from hybrid_recovery.sim.initial_states import perturb_start, seat_single, settle_pool
 
 RECORD_DT = 0.02
 """Sampling period of the recorded trace [s] (50 Hz, the control rate)."""

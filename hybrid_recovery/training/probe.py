@@ -12,7 +12,7 @@ import torch
 from tensordict import TensorDict
 
 from hybrid_recovery.envs import RecoveryEnv, apply_overrides
-from hybrid_recovery.envs.initial_states import POSES
+from hybrid_recovery.sim.initial_states import POSES
 from hybrid_recovery.training.checkpoint import LATEST, load_checkpoint
 from hybrid_recovery.training.config import train_config_from_dict
 from hybrid_recovery.training.export import actor_from_checkpoint

@@ -22,8 +22,8 @@ from dataclasses import asdict
 from pathlib import Path
 
 from hybrid_recovery.deploy.bridge import run_controller
-from hybrid_recovery.deploy.limits import SafetyLimits
 from hybrid_recovery.deploy.state_machine import SafetyConfig
+from hybrid_recovery.robot.limits import SafetyLimits
 
 _ROBOT_CODE = (
     "import json, dataclasses, sys\n"
@@ -49,7 +49,7 @@ def bench_deploy(seconds: float = 60.0, policy_dir: str | Path | None = None,
     domain = domain_id if domain_id is not None else random.SystemRandom().randint(1, 200)
     with tempfile.TemporaryDirectory() as tmp:
         if policy_dir is None:
-            from hybrid_recovery.deploy.stand_in import write_stand_in_policy
+            from hybrid_recovery.training.stand_in import write_stand_in_policy
 
             policy_dir = write_stand_in_policy(Path(tmp) / "policy", "random")
         robot = subprocess.Popen(
