@@ -1,4 +1,4 @@
-"""``bench-deploy``: ONNX inference latency and 50 Hz loop jitter over loopback DDS.
+"""``bench deploy``: ONNX inference latency and 50 Hz loop jitter over loopback DDS.
 
 The simulated robot runs in a second process (MuJoCo 1 kHz, ``LowState_`` at 500 Hz); this
 process runs the full controller (state machine + policy + DDS) for ``seconds``. The
@@ -85,7 +85,7 @@ def format_bench(result: dict) -> str:
     c, s = result["controller"], result["controller"]["stats"]
     r = result["robot"]
     lines = [
-        f"bench-deploy: {result['seconds']:.0f} s over loopback DDS, controller "
+        f"bench deploy: {result['seconds']:.0f} s over loopback DDS, controller "
         f"{c['scheduling']}, robot {r.get('scheduling', '?')}; load avg "
         f"{result['load']['loadavg_before'][0]:.2f} → {result['load']['loadavg_after'][0]:.2f},"
         f" CPU busy {100 * result['load']['cpu_busy_share']:.0f} % of "

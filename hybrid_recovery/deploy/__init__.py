@@ -1,7 +1,7 @@
 """Hardware deployment: the Unitree low-level protocol, transport and runners.
 
 * ``protocol``: ``LowCmd_``/``LowState_``, their CRC, the cyclonedds transport.
-* ``robot_io``: joint ↔ motor-slot map, :class:`RobotState`, :class:`JointCommand`.
+* ``robot_io``: joint ↔ motor-slot map, :class:`LowStateReading`, :class:`JointCommand`.
 * ``wire`` / ``fast_dds``: the messages as DDS wire bytes (the fast 500 Hz path).
 * ``state_machine``: the safety layer (pure logic, no I/O; its limits are
   :mod:`hybrid_recovery.robot.limits`).

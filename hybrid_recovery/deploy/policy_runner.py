@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from hybrid_recovery.deploy.robot_io import RobotState
+from hybrid_recovery.deploy.robot_io import LowStateReading
 from hybrid_recovery.deploy.state_machine import PolicyOutput
 from hybrid_recovery.policy import OnnxPolicy, policy_step
 from hybrid_recovery.robot import constants
@@ -77,7 +77,7 @@ class PolicyRunner:
         """Start of an episode: a_{t−1} = 0."""
         self.last_action = np.zeros(constants.NUM_JOINTS)
 
-    def step(self, state: RobotState) -> PolicyOutput:
+    def step(self, state: LowStateReading) -> PolicyOutput:
         """One control step: o_t, a_t, and q_ref = q* + scale · clip(a_t); remembers a_t."""
         step = policy_step(self.policy, state.gyro, state.quat, state.q, state.dq,
                            self.last_action, self.action_scale)

@@ -30,11 +30,9 @@ from hybrid_recovery.deploy.sim_robot import SimRobot, SimRobotConfig, implicit_
 from hybrid_recovery.deploy.state_machine import Phase, SafetyConfig, SafetyStateMachine
 from hybrid_recovery.dynamics import RobotModel
 from hybrid_recovery.observation import projected_gravity
+from hybrid_recovery.robot.constants import UPRIGHT_COM_HEIGHT
 from hybrid_recovery.robot.limits import SafetyLimits
 from hybrid_recovery.sim.initial_states import POSES, settle_pool
-
-UPRIGHT_COM_HEIGHT = 0.85
-"""CoM height counted as upright [m] (the env's ``upright_height``)."""
 
 
 @dataclass

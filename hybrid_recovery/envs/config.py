@@ -7,6 +7,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from hybrid_recovery.robot.action import TARGET_RANGE_FACTOR
+from hybrid_recovery.robot.constants import UPRIGHT_COM_HEIGHT
 
 
 @dataclass
@@ -264,7 +265,7 @@ class ReplayConfig:
 @dataclass
 class BridgeConfig:
     """Start-pose bridges (beyond the paper; off by default), see
-    :mod:`hybrid_recovery.envs.bridge`.
+    :mod:`hybrid_recovery.envs.pose_bridge`.
 
     For each (source, target) of ``pairs``, episodes drawn for the target start instead
     from a blend of the two poses — joint angles and base pitch interpolated, settled
@@ -346,7 +347,7 @@ class EnvConfig:
     wiggling.)"""
     stuck_rise: float = 0.02
     """[m]."""
-    upright_height: float = 0.85
+    upright_height: float = UPRIGHT_COM_HEIGHT
     """CoM height of the success criterion [m]."""
     rewards: RewardConfig = field(default_factory=RewardConfig)
     noise: NoiseConfig = field(default_factory=NoiseConfig)

@@ -21,10 +21,10 @@ from hybrid_recovery.dynamics import GRAVITY, net_centroidal_wrench
 from hybrid_recovery.dynamics.capturability import capture_point
 from hybrid_recovery.dynamics.support import signed_distance_batched
 from hybrid_recovery.envs.assist import Assist
-from hybrid_recovery.envs.bridge import PoseBridge
 from hybrid_recovery.envs.config import EnvConfig, default_config
 from hybrid_recovery.envs.curriculum import Curriculum
 from hybrid_recovery.envs.domain_rand import Randomizer
+from hybrid_recovery.envs.pose_bridge import PoseBridge
 from hybrid_recovery.envs.pushes import Pushes
 from hybrid_recovery.envs.replay import StartReplay
 from hybrid_recovery.envs.rewards import RewardState, compute_rewards

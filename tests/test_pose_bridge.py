@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from hybrid_recovery.envs import RecoveryEnv, default_config
-from hybrid_recovery.envs.bridge import PoseBridge, blend_pose
 from hybrid_recovery.envs.config import BridgeConfig
+from hybrid_recovery.envs.pose_bridge import PoseBridge, blend_pose
 from hybrid_recovery.sim.initial_states import POSE_LIBRARY, POSES
 from hybrid_recovery.training.checkpoint import atomic_save, load_checkpoint
 from hybrid_recovery.training.config import TrainConfig
