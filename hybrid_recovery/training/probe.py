@@ -72,7 +72,7 @@ def bridge_env(run: Path, num_envs: int, seed: int, levels: int, source: str,
     every start drawn for ``target`` at the bridge's current level (none mixed) and no
     assistance; with the run's latest actor and checkpoint."""
     env, data = training_env(run, num_envs, seed, {
-        "bridge.levels": levels, "bridge.pairs": [[source, target]], "bridge.mix": 0.0,
+        "bridge.levels": levels, "bridge.pairs": [[source, target]],
         "pose_weights": {target: 1.0}})
     env.assist.fraction = 0.0
     return env, actor_from_checkpoint(data), data
