@@ -11,13 +11,17 @@ from pathlib import Path
 
 import pytest
 
+from hybrid_recovery.envs.assist import Assist
 from hybrid_recovery.envs.config import (
     REMOVED,
     EnvConfig,
     drop_removed,
     env_config_from_dict,
 )
+from hybrid_recovery.envs.curriculum import Curriculum
+from hybrid_recovery.envs.pose_bridge import PoseBridge
 from hybrid_recovery.policy import SHIPPED_POLICY
+from hybrid_recovery.training.checkpoint import load_checkpoint
 from hybrid_recovery.training.config import amend_train_config, train_config_from_dict
 from hybrid_recovery.training.runner import _resumed_config, make_env_config
 from hybrid_recovery.training.variants import VARIANTS, variant_train_config
@@ -81,7 +85,19 @@ def test_the_live_checkpoints_run_resumes_with_its_saved_settings():
     saved = json.loads((LIVE_RUN / "config.json").read_text())
     resumed = _resumed_config(LIVE_RUN, variant_train_config("full", iterations=50_000))
     assert resumed == train_config_from_dict(saved["train_config"])
-    assert _plain(make_env_config(resumed)) == _plain(env_config_from_dict(saved["env_config"]))
+    env_cfg = make_env_config(resumed)
+    assert _plain(env_cfg) == _plain(env_config_from_dict(saved["env_config"]))
+    # the checkpoint's curriculum, assistance and bridge states load into the run's own
+    infos = load_checkpoint(LIVE_RUN / "latest.pt")["infos"]
+    curriculum, bridge = Curriculum(env_cfg.curriculum), PoseBridge(env_cfg.bridge)
+    assist = Assist(env_cfg.assist, env_cfg.curriculum.window, 0.6)
+    curriculum.load_state_dict(infos["curriculum"])
+    assist.load_state_dict(infos["assist"])
+    bridge.load_state_dict(infos["bridge"])
+    assert (curriculum.stage, curriculum.level) == (3, 1.0)
+    assert bridge.level == infos["bridge"]["level"] and assist.fraction == \
+        infos["assist"]["fraction"]
+    assert len(bridge._outcomes["sitting"]) == len(infos["bridge"]["outcomes"]["sitting"])
 
 
 def test_the_recovery_variant_is_the_shipped_recipe():
