@@ -12,14 +12,10 @@ from pathlib import Path
 import pytest
 
 from hybrid_recovery.envs.assist import Assist
-from hybrid_recovery.envs.config import (
-    REMOVED,
-    EnvConfig,
-    drop_removed,
-    env_config_from_dict,
-)
+from hybrid_recovery.envs.config import EnvConfig
 from hybrid_recovery.envs.curriculum import Curriculum
 from hybrid_recovery.envs.pose_bridge import PoseBridge
+from hybrid_recovery.envs.removed import REMOVED, drop_removed, env_config_from_dict
 from hybrid_recovery.policy import SHIPPED_POLICY
 from hybrid_recovery.training.checkpoint import load_checkpoint
 from hybrid_recovery.training.config import amend_train_config, train_config_from_dict

@@ -5,7 +5,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, field, fields, replace
 from typing import Any
 
-from hybrid_recovery.envs.config import drop_removed
+from hybrid_recovery.envs.removed import drop_removed
 
 
 @dataclass
@@ -60,7 +60,7 @@ class TrainConfig:
 
 def train_config_from_dict(data: dict[str, Any]) -> TrainConfig:
     """The TrainConfig saved in a run's ``config.json`` (``train_config``); environment
-    options removed since (:data:`hybrid_recovery.envs.config.REMOVED`) are dropped from
+    options removed since (:data:`hybrid_recovery.envs.removed.REMOVED`) are dropped from
     its ``env_overrides`` where they hold their neutral values.
 
     Raises:

@@ -56,7 +56,7 @@ def training_env(run: Path, num_envs: int, seed: int,
 def bridge_env(run: Path, num_envs: int, seed: int, levels: int, source: str,
                target: str) -> tuple[RecoveryEnv, torch.nn.Module, dict]:
     """``run``'s training env with one bridge, ``source`` → ``target`` in ``levels`` steps,
-    every start drawn for ``target`` at the bridge's current level (none mixed) and no
+    every start drawn for ``target`` at the bridge's current level and no
     assistance; with the run's latest actor and checkpoint."""
     env, data = training_env(run, num_envs, seed, {
         "bridge.levels": levels, "bridge.pairs": [[source, target]],
