@@ -12,7 +12,7 @@ import json
 import pytest
 import torch
 
-from hybrid_recovery.bench.update_parts import fill_storage
+from hybrid_recovery.bench.update_parts import fill_storage, ratio_noise
 from hybrid_recovery.envs import RecoveryEnv
 from hybrid_recovery.training import TrainConfig, load_checkpoint, train
 from hybrid_recovery.training.config import runner_dict, train_config_from_dict
@@ -124,3 +124,19 @@ def test_precision_is_amendable(tmp_path):
     assert resumed.alg.use_mixed_precision is True
     saved = json.loads((tmp_path / "config.json").read_text())
     assert saved["amendments"][-1]["changes"] == {"ppo.mixed_precision": True}
+
+
+def test_bf16_rounding_shows_in_the_ppo_ratio(filled):
+    """Before any step θ = θold, so PPO's ratio is 1 up to rounding: float32 rounding is
+    far below the clip range 0.2, bf16's (8-bit mantissa on the action mean) is not."""
+    runner, storage = filled
+    alg = runner.alg
+    for key, value in storage.items():
+        setattr(alg.storage, key, value.clone() if torch.is_tensor(value) else value)
+    alg.use_mixed_precision = False
+    fp32 = ratio_noise(alg)
+    alg.use_mixed_precision = True
+    bf16 = ratio_noise(alg)
+    alg.use_mixed_precision = False
+    assert fp32 < 1e-4
+    assert 1e-3 < bf16 < 0.2

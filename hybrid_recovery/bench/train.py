@@ -14,7 +14,7 @@ from typing import Any
 from hybrid_recovery.bench.env import _timed
 from hybrid_recovery.bench.physics_replay import PhysicsReplay
 from hybrid_recovery.bench.result import BenchResult
-from hybrid_recovery.bench.update_parts import fill_storage, time_update_parts
+from hybrid_recovery.bench.update_parts import fill_storage, ratio_noise, time_update_parts
 
 
 def bench_train_config(n: int, seed: int, threads: int, overrides: dict[str, Any] | None):
@@ -49,7 +49,9 @@ def run_train_bench(n: int = 1024, repeat: int = 2, seed: int = 0, threads: int 
     PPO update; replays the same iterations' controls and pushes on the bare Batch for the
     physics-only rate (as ``bench env``), so ``ratio`` = end-to-end / physics-only env
     steps per second; then times the update's parts on one more rollout
-    (:func:`~hybrid_recovery.bench.update_parts.time_update_parts`).
+    (:func:`~hybrid_recovery.bench.update_parts.time_update_parts`) and the PPO ratio's
+    rounding noise in the update's precision
+    (:func:`~hybrid_recovery.bench.update_parts.ratio_noise`).
 
     Args:
         overrides: TrainConfig settings, see :func:`bench_train_config`.
@@ -84,6 +86,7 @@ def run_train_bench(n: int = 1024, repeat: int = 2, seed: int = 0, threads: int 
              "policy_inference_and_storage": wall - totals["step"] - totals["update"],
              "ppo_update": totals["update"]}
     fill_storage(runner)
+    noise = ratio_noise(runner.alg)
     parts = time_update_parts(runner.alg, repeat)
     parts["rest"] = totals["update"] / repeat - sum(parts.values())
     runner.alg.storage.clear()
@@ -109,4 +112,5 @@ def run_train_bench(n: int = 1024, repeat: int = 2, seed: int = 0, threads: int 
                  "ratio": round(env_rate / physics_rate, 3),
                  "s_per_iteration": {k: round(v / repeat, 3) for k, v in split.items()},
                  "update_s_per_iteration": {k: round(v, 3) for k, v in parts.items()},
+                 "ratio_noise_at_start": round(noise, 4),
                  "settings": settings, "loadavg_1min": round(load, 2)})

@@ -74,6 +74,21 @@ def time_update_parts(alg, repeat: int = 3) -> dict[str, float]:
             for k in UPDATE_PARTS}
 
 
+def ratio_noise(alg) -> float:
+    """Mean |r − 1| of PPO's ratio r = π_θ(a|s) / π_θold(a|s) on the first mini-batch of the
+    filled storage, before any step: θ = θold, so r = 1 up to the rounding of the update's
+    forward pass (float32: ~1e-3 from other matmul blocking than the rollout's; bf16: the
+    rounding of the action mean, whose log-probability error grows as 1/σ). Compare
+    with the clip range ε = 0.2.
+    """
+    batch = next(alg.storage.mini_batch_generator(alg.num_mini_batches, 1))
+    with torch.no_grad(), _autocast(alg):
+        alg.actor(batch.observations, stochastic_output=True)
+        log_prob = alg.actor.get_output_log_prob(batch.actions).float()
+    ratio = torch.exp(log_prob - batch.old_actions_log_prob.squeeze())
+    return float((ratio - 1.0).abs().mean())
+
+
 def _autocast(alg):
     return torch.autocast("cpu", dtype=torch.bfloat16, enabled=alg.use_mixed_precision)
 
