@@ -140,3 +140,17 @@ def test_bf16_rounding_shows_in_the_ppo_ratio(filled):
     alg.use_mixed_precision = False
     assert fp32 < 1e-4
     assert 1e-3 < bf16 < 0.2
+
+
+def test_cli_passes_precision_and_torch_threads(monkeypatch, tmp_path):
+    import hybrid_recovery.training as training
+    from hybrid_recovery.cli.main import main
+
+    seen = {}
+    monkeypatch.setattr(training, "train", lambda run_dir, cfg, **kw: seen.update(cfg=cfg))
+    main(["train", "--run-dir", str(tmp_path), "--mixed-precision", "--torch-threads", "1",
+          "--threads", "2"])
+    assert seen["cfg"].ppo.mixed_precision is True
+    assert (seen["cfg"].torch_threads, seen["cfg"].num_threads) == (1, 2)
+    main(["train", "--run-dir", str(tmp_path)])
+    assert seen["cfg"].ppo.mixed_precision is False and seen["cfg"].torch_threads is None
