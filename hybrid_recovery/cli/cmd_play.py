@@ -3,17 +3,13 @@
 from __future__ import annotations
 
 import argparse
-import os
 
 from hybrid_recovery.cli.registry import command
-
-# Offscreen rendering: MuJoCo picks its OpenGL backend when it is first imported, which
-# in the CLI happens after the subcommand modules are loaded; EGL needs no display.
-os.environ.setdefault("MUJOCO_GL", "egl")
 
 
 def _play(args: argparse.Namespace) -> int:
     from hybrid_recovery.envs.play import onnx_policy, play
+    from hybrid_recovery.envs.render import renderer_backend
     from hybrid_recovery.policy import resolve_policy
 
     policy = None if args.policy in (None, "zero") else onnx_policy(resolve_policy(args.policy))
@@ -22,6 +18,7 @@ def _play(args: argparse.Namespace) -> int:
                   push_duration=args.push_duration, fps=args.fps, seed=args.seed,
                   randomize=args.randomize, model_path=args.model)
     print(f"wrote {args.out} ({frames} frames at {args.fps} fps)")
+    print(f"renderer: {renderer_backend()}")
     return 0
 
 

@@ -3,12 +3,9 @@
 from __future__ import annotations
 
 import argparse
-import os
 from pathlib import Path
 
 from hybrid_recovery.cli.registry import command
-
-os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco (video)
 
 
 def _sim2sim(args: argparse.Namespace) -> int:
@@ -34,6 +31,8 @@ def _sim2sim(args: argparse.Namespace) -> int:
           f"fault: {summary['fault']}")
     print(f"wrote {out / 'trace.csv'}, {out / 'trace.png'}, {out / 'summary.json'}"
           + (f", {summary['video']}" if "video" in summary else ""))
+    if "renderer" in summary:
+        print(f"renderer: {summary['renderer']}")
     return 0
 
 
