@@ -43,8 +43,8 @@ def _configure(p: argparse.ArgumentParser) -> None:
                    help="exported policy directory, 'shipped' (the policy shipped in "
                         "models/policies/h1_2_recovery) or 'zero' for a zero-action stand-in")
     p.add_argument("--model", default=None,
-                   help="H1-2 MJCF (default: the project's model), e.g. "
-                        "../shared/reference/unitree_h1_2/h1_2_handless.xml")
+                   help="H1-2 MJCF (default: the project's model), e.g. the manufacturer's "
+                        "h1_2_handless.xml from unitree_ros")
     p.add_argument("--pose", default="standing", choices=POSES)
     p.add_argument("--seconds", type=float, default=10.0)
     p.add_argument("--push", type=float, default=0.0, help="torso push force [N]")

@@ -1,4 +1,4 @@
-"""Typed training configuration (SPEC §1) and its rsl-rl-lib 5 runner dictionary."""
+"""Typed training configuration (paper §III-B) and its rsl-rl-lib 5 runner dictionary."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from typing import Any
 
 @dataclass
 class PPOConfig:
-    """PPO hyperparameters: the paper's (SPEC §1) where it gives them."""
+    """PPO hyperparameters: the paper's (paper §III-B) where it gives them."""
 
     clip_param: float = 0.2
     gamma: float = 0.99
