@@ -1,9 +1,8 @@
 """Probes of a run's actor in its own training env: deterministic, unassisted episodes
-from chosen start states (used by the scripts in ``training/``)."""
+from chosen start states (the scripts in ``research/`` use them)."""
 
 from __future__ import annotations
 
-import argparse
 import json
 from pathlib import Path
 
@@ -17,18 +16,6 @@ from hybrid_recovery.training.checkpoint import LATEST, load_checkpoint
 from hybrid_recovery.training.config import train_config_from_dict
 from hybrid_recovery.training.export import actor_from_checkpoint
 from hybrid_recovery.training.runner import make_env_config
-
-
-def bridge_probe_parser(description: str) -> argparse.ArgumentParser:
-    """Arguments of the bridge probes: runs, --levels K, --envs, --source, --target, --seed."""
-    parser = argparse.ArgumentParser(description=description)
-    parser.add_argument("runs", type=Path, nargs="+")
-    parser.add_argument("--levels", type=int, default=8)
-    parser.add_argument("--envs", type=int, default=64, help="episodes per level and run")
-    parser.add_argument("--source", default="half_kneeling")
-    parser.add_argument("--target", default="kneeling")
-    parser.add_argument("--seed", type=int, default=7)
-    return parser
 
 
 def heading_xy(xmat: np.ndarray) -> np.ndarray:

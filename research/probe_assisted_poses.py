@@ -7,7 +7,7 @@ gravity) at f, on every pose named; the share that stands up (CoM above 0.85 m, 
 within 72°, for 1 s) says how much of a rise each actor makes on its own, and how much the
 assistance still carries.
 
-    python training/probe_assisted_poses.py runs/full_bridge_focus --poses supine sitting \
+    python research/probe_assisted_poses.py runs/my_run --poses supine sitting \
         --fractions 0 0.3 0.5 0.648 --envs 32
 """
 
