@@ -148,6 +148,7 @@ class SoftwareRenderer:
         if polygons:
             faces = [p for _, p, _ in polygons]
             colors = np.array([c for _, _, c in polygons])
+            colors[:, 3] = 0.5 + 0.5 * colors[:, 3]  # flat fills read paler than lit ones
             edges = colors.copy()
             edges[:, :3] *= 0.6
             ax.add_collection(PolyCollection(faces, facecolors=colors, edgecolors=edges,
