@@ -9,7 +9,9 @@ The flat public API; see the subpackages for the rest.
 """
 
 # First: MuJoCo reads MUJOCO_GL when it is imported, so the OpenGL backend is chosen here.
-from hybrid_recovery import _gl_backend  # noqa: F401
+from hybrid_recovery.sim import gl_backend  # noqa: F401
+
+# isort: split
 from hybrid_recovery.dynamics import GRAVITY, BalanceState, RobotModel, net_centroidal_wrench
 from hybrid_recovery.dynamics.capturability import (
     capture_point,

@@ -15,10 +15,10 @@ import pytest
 
 from hybrid_recovery.dynamics import RobotModel
 from hybrid_recovery.dynamics.support import signed_distance
-from hybrid_recovery.envs.play import play
-from hybrid_recovery.envs.render import BalanceOverlay, add_overlay, balance_overlay
-from hybrid_recovery.envs.scene import build_scene
+from hybrid_recovery.evaluation.play import play
 from hybrid_recovery.robot.mjcf import default_qpos
+from hybrid_recovery.sim.render import BalanceOverlay, add_overlay, balance_overlay
+from hybrid_recovery.sim.scene import build_scene
 
 
 @pytest.fixture(scope="module")
@@ -135,7 +135,7 @@ def test_play_writes_a_short_mp4(tmp_path):
 # --- without OpenGL: the backend choice and the software renderer ---------------------------
 
 def test_backend_choice_before_mujoco_is_imported(monkeypatch):
-    from hybrid_recovery import _gl_backend
+    from hybrid_recovery.sim import gl_backend as _gl_backend
 
     monkeypatch.delitem(sys.modules, "mujoco")  # as before the first import
     for name in ("DISPLAY", "WAYLAND_DISPLAY", "PYOPENGL_PLATFORM", "MUJOCO_GL"):
@@ -158,7 +158,7 @@ def test_backend_choice_before_mujoco_is_imported(monkeypatch):
 
 
 def test_renderer_backend_argument_is_checked():
-    from hybrid_recovery.envs.render import BalanceRenderer
+    from hybrid_recovery.sim.render import BalanceRenderer
 
     with pytest.raises(ValueError, match=r"^backend must be one of \['auto', 'opengl', "
                                          r"'software'\], got 'vulkan'$"):
@@ -174,8 +174,8 @@ def test_software_frame_puts_the_robot_where_opengl_does(standing):
     """The software renderer projects with MuJoCo's own camera: the robot's silhouette
     (the pixels above the horizon, where only the robot and the overlay are) overlaps
     the OpenGL frame's."""
-    from hybrid_recovery._gl_backend import gl_context_works
-    from hybrid_recovery.envs.render import BalanceRenderer
+    from hybrid_recovery.sim.gl_backend import gl_context_works
+    from hybrid_recovery.sim.render import BalanceRenderer
 
     if not gl_context_works():
         pytest.skip("no OpenGL context to compare with")
@@ -198,7 +198,7 @@ def test_demo_video_without_opengl(tmp_path, monkeypatch, capsys):
     an MP4 of 6 s at 25 fps of a robot that moves."""
     import imageio.v2 as imageio
 
-    import hybrid_recovery.envs.render as render
+    import hybrid_recovery.sim.render as render
     from hybrid_recovery.demo.comparison import _video
 
     monkeypatch.setattr(render, "gl_context_works", lambda: False)

@@ -108,8 +108,8 @@ def _table(results: dict[str, list[dict]]) -> str:
 
 def _video(spec: str, out: Path) -> None:
     try:
-        from hybrid_recovery.envs.render import renderer_backend
         from hybrid_recovery.evaluation.video import render_trial
+        from hybrid_recovery.sim.render import renderer_backend
     except ImportError as err:
         print(f"note: no video ({err})")
         return

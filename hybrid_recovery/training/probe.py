@@ -1,5 +1,5 @@
 """Probes of a run's actor in its own training env: deterministic, unassisted episodes
-from chosen start states (the scripts in ``research/`` use them)."""
+from chosen start states (the research scripts build on these)."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import torch
 from tensordict import TensorDict
 
 from hybrid_recovery.envs import RecoveryEnv, apply_overrides
-from hybrid_recovery.envs.initial_states import POSES
+from hybrid_recovery.sim.initial_states import POSES
 from hybrid_recovery.training.checkpoint import LATEST, load_checkpoint
 from hybrid_recovery.training.config import train_config_from_dict
 from hybrid_recovery.training.export import actor_from_checkpoint
@@ -56,10 +56,10 @@ def training_env(run: Path, num_envs: int, seed: int,
 def bridge_env(run: Path, num_envs: int, seed: int, levels: int, source: str,
                target: str) -> tuple[RecoveryEnv, torch.nn.Module, dict]:
     """``run``'s training env with one bridge, ``source`` → ``target`` in ``levels`` steps,
-    every start drawn for ``target`` at the bridge's current level (none mixed) and no
+    every start drawn for ``target`` at the bridge's current level and no
     assistance; with the run's latest actor and checkpoint."""
     env, data = training_env(run, num_envs, seed, {
-        "bridge.levels": levels, "bridge.pairs": [[source, target]], "bridge.mix": 0.0,
+        "bridge.levels": levels, "bridge.pairs": [[source, target]],
         "pose_weights": {target: 1.0}})
     env.assist.fraction = 0.0
     return env, actor_from_checkpoint(data), data

@@ -13,8 +13,8 @@ The overlay is computed from a simulation's own model and data (its randomised m
 and contact parameters); the picture comes from a render model of the same robot with a
 textured floor and brighter light. Frames are drawn by MuJoCo's OpenGL renderer where a
 context can be made (the backend is chosen before mujoco is imported:
-``hybrid_recovery._gl_backend``), else in software
-(:class:`hybrid_recovery.envs.software_renderer.SoftwareRenderer`, matplotlib).
+``hybrid_recovery.sim.gl_backend``), else in software
+(:class:`hybrid_recovery.sim.software_renderer.SoftwareRenderer`, matplotlib).
 """
 
 from __future__ import annotations
@@ -26,13 +26,13 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from hybrid_recovery._gl_backend import gl_context_works, loaded_backend
 from hybrid_recovery.dynamics import GRAVITY
 from hybrid_recovery.dynamics.capturability import capture_point
 from hybrid_recovery.dynamics.support import support_polygon
-from hybrid_recovery.envs.software_renderer import SoftwareRenderer
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.mjcf import FLOOR_NAME, load_spec
+from hybrid_recovery.sim.gl_backend import gl_context_works, loaded_backend
+from hybrid_recovery.sim.software_renderer import SoftwareRenderer
 
 ROBOT_ALPHA = 0.55
 """Opacity of the robot's geoms in the video."""

@@ -7,7 +7,7 @@ EGL, then OSMesa, else ``disable`` (MuJoCo then never tries GLFW, which prints e
 machine without a display). Whether a context can really be made is asked of a child
 process (:func:`gl_context_works`), so that a crashing driver cannot take the caller down
 and its messages do not reach the caller's terminal; where none can, the renderers draw
-in software (``hybrid_recovery.envs.software_renderer``).
+in software (``hybrid_recovery.sim.software_renderer``).
 """
 
 from __future__ import annotations
