@@ -5,7 +5,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from hybrid_recovery.cli.errors import UsageError
 from hybrid_recovery.cli.registry import command
+from hybrid_recovery.cli.validate import integer, number
 
 
 def _scenarios(args: argparse.Namespace):
@@ -16,7 +18,7 @@ def _scenarios(args: argparse.Namespace):
         kwargs["duration"] = args.duration
     if args.poses:
         if args.protocol == "pushes":
-            raise SystemExit("eval: --poses restricts the poses and sweep protocols; "
+            raise UsageError("eval: --poses restricts the poses and sweep protocols; "
                              "pushes start from standing")
         for pose in args.poses:
             check_pose(pose)
@@ -60,14 +62,14 @@ def _compare(args: argparse.Namespace) -> int:
 
 def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--protocol", choices=["poses", "sweep", "pushes"], default="poses")
-    p.add_argument("--trials", type=int, default=100,
+    p.add_argument("--trials", type=integer(1), default=100,
                    help="poses: trials in all; sweep/pushes: trials per cell")
     p.add_argument("--poses", nargs="*", default=None, help="poses, sweep: only these start poses")
-    p.add_argument("--duration", type=float, default=None, help="trial length [s]")
+    p.add_argument("--duration", type=number(0.0), default=None, help="trial length [s]")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--model", default=None, help="another robot MJCF (sim-to-sim)")
     p.add_argument("--contact", default="default", help="contact preset (sim-to-sim)")
-    p.add_argument("--workers", type=int, default=2)
+    p.add_argument("--workers", type=integer(1), default=2)
 
 
 def _configure_eval(p: argparse.ArgumentParser) -> None:
