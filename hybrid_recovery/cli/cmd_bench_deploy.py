@@ -6,7 +6,7 @@ import argparse
 import json
 
 from hybrid_recovery.cli.registry import command
-from hybrid_recovery.cli.validate import number
+from hybrid_recovery.cli.validate import positive
 
 
 def _bench_deploy(args: argparse.Namespace) -> int:
@@ -20,7 +20,7 @@ def _bench_deploy(args: argparse.Namespace) -> int:
 
 
 def _configure(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--seconds", type=number(0.0), default=60.0, help="controller run time [s]")
+    p.add_argument("--seconds", type=positive, default=60.0, help="controller run time [s]")
     p.add_argument("--policy", default=None,
                    help="exported policy directory (default: a random stand-in of the same size)")
     p.add_argument("--no-realtime", action="store_true",

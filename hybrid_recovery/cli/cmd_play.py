@@ -6,7 +6,7 @@ import argparse
 import os
 
 from hybrid_recovery.cli.registry import command
-from hybrid_recovery.cli.validate import finite, number
+from hybrid_recovery.cli.validate import finite, non_negative, positive
 
 # Offscreen rendering: MuJoCo picks its OpenGL backend when it is first imported, which
 # in the CLI happens after the subcommand modules are loaded; EGL needs no display.
@@ -33,12 +33,12 @@ def _configure_play(p: argparse.ArgumentParser) -> None:
                    help="policy.onnx (or its export directory); 'shipped' for the shipped "
                         "policy; 'zero' for zero actions")
     p.add_argument("--pose", default="standing", choices=POSES, help="start pose")
-    p.add_argument("--seconds", type=number(0.0), default=5.0, help="episode length [s]")
+    p.add_argument("--seconds", type=positive, default=5.0, help="episode length [s]")
     p.add_argument("--out", default="play.mp4", help="video file to write")
-    p.add_argument("--push", type=number(0.0, inclusive=True), default=0.0, metavar="N",
+    p.add_argument("--push", type=non_negative, default=0.0, metavar="N",
                    help="torso push force [N] at --push-time (0: no push)")
-    p.add_argument("--push-time", type=number(0.0, inclusive=True), default=1.0, help="[s]")
-    p.add_argument("--push-duration", type=number(0.0), default=0.1, help="[s]")
+    p.add_argument("--push-time", type=non_negative, default=1.0, help="[s]")
+    p.add_argument("--push-duration", type=positive, default=0.1, help="[s]")
     p.add_argument("--push-angle", type=finite, default=0.0,
                    help="push direction in the robot's heading frame [deg]: 0 forward, 90 left")
     p.add_argument("--fps", type=int, default=25, choices=(25, 50))

@@ -7,7 +7,7 @@ import os
 from pathlib import Path
 
 from hybrid_recovery.cli.registry import command
-from hybrid_recovery.cli.validate import finite, integer, number
+from hybrid_recovery.cli.validate import finite, integer, non_negative, positive
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco (video)
 
@@ -48,13 +48,13 @@ def _configure(p: argparse.ArgumentParser) -> None:
                    help="H1-2 MJCF (default: the project's model), e.g. "
                         "../shared/reference/unitree_h1_2/h1_2_handless.xml")
     p.add_argument("--pose", default="standing", choices=POSES)
-    p.add_argument("--seconds", type=number(0.0), default=10.0)
-    p.add_argument("--push", type=number(0.0, inclusive=True), default=0.0, help="torso push force [N]")
+    p.add_argument("--seconds", type=positive, default=10.0)
+    p.add_argument("--push", type=non_negative, default=0.0, help="torso push force [N]")
     p.add_argument("--push-angle", type=finite, default=0.0,
                    help="push direction in the world x-y plane [deg], 0 = +x")
-    p.add_argument("--push-time", type=number(0.0, inclusive=True), default=2.0, help="[s]")
-    p.add_argument("--push-duration", type=number(0.0), default=0.2, help="[s]")
-    p.add_argument("--delay-ms", type=number(0.0, inclusive=True), default=0.0, help="actuation delay [ms]")
+    p.add_argument("--push-time", type=non_negative, default=2.0, help="[s]")
+    p.add_argument("--push-duration", type=positive, default=0.2, help="[s]")
+    p.add_argument("--delay-ms", type=non_negative, default=0.0, help="actuation delay [ms]")
     p.add_argument("--startup", action="store_true",
                    help="zero torque → interpolate → hold before the policy, as on hardware")
     p.add_argument("--no-video", action="store_true")

@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 
 from hybrid_recovery.cli.registry import command, parse_overrides
-from hybrid_recovery.cli.validate import integer, number
+from hybrid_recovery.cli.validate import integer, positive
 
 _FIELDS = {"variant": "variant", "num_envs": "num_envs", "iterations": "iterations",
            "seed": "seed", "save_interval": "save_interval", "threads": "num_threads",
@@ -51,7 +51,7 @@ def _configure_train(p: argparse.ArgumentParser) -> None:
                    help="start over in a --run-dir that holds a run (its checkpoints, "
                         "settings and logs are removed)")
     p.add_argument("--symmetry", action="store_true", help="left/right mirror augmentation")
-    p.add_argument("--init-std", type=number(0.0), default=1.0,
+    p.add_argument("--init-std", type=positive, default=1.0,
                    help="initial action noise std (the paper: 1.0)")
     p.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
                    help="EnvConfig overrides, e.g. rewards.w_cp=0 curriculum.window=256")
@@ -62,7 +62,7 @@ def _configure_train(p: argparse.ArgumentParser) -> None:
     p.add_argument("--follow", default=None, metavar="RUN",
                    help="replay the amendments of another run (its directory or config.json) "
                         "at the same iterations, e.g. an ablation of a run with a history")
-    p.add_argument("--max-std", type=number(0.0), default=None,
+    p.add_argument("--max-std", type=positive, default=None,
                    help="upper bound of the action noise std (default: unbounded)")
 
 

@@ -69,3 +69,9 @@ def check_model(path: str | None) -> None:
     from hybrid_recovery.robot.mjcf import load_mjmodel
 
     load_mjmodel(Path(path))
+
+
+non_negative = number(0.0, inclusive=True)
+"""An argparse type: a finite number >= 0."""
+positive = number(0.0)
+"""An argparse type: a finite number > 0."""

@@ -9,6 +9,7 @@ import time
 from collections.abc import Iterator
 from pathlib import Path
 
+from hybrid_recovery.evaluation.contact import check_contact_preset
 from hybrid_recovery.evaluation.controllers import make_controller
 from hybrid_recovery.evaluation.scenario import Scenario
 from hybrid_recovery.evaluation.trial import run_trial
@@ -117,8 +118,9 @@ def run_protocol(scenarios: list[Scenario], controller: str, results: str | Path
         ValueError: ``results`` exists but holds another run (or no header).
     """
     results = Path(results)
+    check_contact_preset(contact)
+    built = make_controller(controller)  # fail fast on a bad spec, before any file
     results.parent.mkdir(parents=True, exist_ok=True)
-    built = make_controller(controller)  # fail fast on a bad spec, before forking
     meta = {"key": "__header__", "controller": controller, "model": model_path,
             "contact": contact, **(header or {})}
     if (policy := policy_provenance(built)) is not None:
