@@ -5,8 +5,9 @@
     python deploy/run_robot.py --policy DIR --interface lo --domain 1   # with sim_robot.py
 
 Zero torque → interpolate to the default pose (2 s) → hold → policy; damping on Ctrl-C,
-at the end of ``--seconds``, or on any fault. Prints a JSON report. See deploy/README.md
-before using it on the robot.
+at the end of ``--seconds``, or on any fault. Prints a JSON report; exits 1 after a fault,
+or with ``error: <cause>`` when the loop failed (damping sent first) or could not start.
+See deploy/README.md before using it on the robot.
 """
 
 from __future__ import annotations
@@ -44,8 +45,12 @@ def main(argv: list[str] | None = None) -> int:
                           interpolate_s=args.interpolate_s, hold_s=args.hold_s,
                           joint_margin=args.joint_margin,
                           stale_timeout_s=args.stale_timeout_s, overrun_s=args.overrun_s)
-    report = run_controller(args.policy, args.domain, args.interface, args.seconds, safety,
-                            args.wait_timeout_s, realtime=args.realtime)
+    try:
+        report = run_controller(args.policy, args.domain, args.interface, args.seconds, safety,
+                                args.wait_timeout_s, realtime=args.realtime)
+    except Exception as err:  # noqa: BLE001 - one line; damping was sent if anything was
+        print(f"error: {err}", file=sys.stderr)
+        return 1
     print(json.dumps(dataclasses.asdict(report)))
     return 0 if report.fault is None else 1
 
