@@ -11,6 +11,7 @@ import pytest
 from hybrid_recovery.cli.main import main
 from hybrid_recovery.training import TrainConfig, load_checkpoint, train
 from hybrid_recovery.training.checkpoint import load_latest
+from hybrid_recovery.training.export import export_policy
 
 FAST = {"curriculum.window": 8, "curriculum.advance_success": 0.0}
 CLI = ["--num-envs", "8", "--save-interval", "1", "--threads", "1", "--set",
@@ -81,6 +82,8 @@ def test_a_damaged_latest_falls_back_to_the_newest_intact_checkpoint(tmp_path, c
     err = capsys.readouterr().err
     assert err.startswith(f"warning: latest.pt: checkpoint {latest} is corrupt or not a torch "
                           "checkpoint: ") and err.endswith(f"; using {path} instead\n")
+    exported = export_policy(run, tmp_path / "export")  # export falls back the same way
+    assert json.loads((exported / "policy.json").read_text())["provenance"]["iteration"] == 2
     (run / "model_2.pt").unlink()
     latest.unlink()
     assert load_latest(run)[1] == run / "model_1.pt"

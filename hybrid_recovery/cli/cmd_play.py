@@ -6,7 +6,7 @@ import argparse
 import os
 
 from hybrid_recovery.cli.registry import command
-from hybrid_recovery.cli.validate import finite, non_negative, positive
+from hybrid_recovery.cli.validate import check_model, finite, non_negative, positive
 
 # Offscreen rendering: MuJoCo picks its OpenGL backend when it is first imported, which
 # in the CLI happens after the subcommand modules are loaded; EGL needs no display.
@@ -17,6 +17,7 @@ def _play(args: argparse.Namespace) -> int:
     from hybrid_recovery.envs.play import onnx_policy, play
     from hybrid_recovery.policy import resolve_policy
 
+    check_model(args.model)
     policy = None if args.policy in (None, "zero") else onnx_policy(resolve_policy(args.policy))
     frames = play(args.out, pose=args.pose, seconds=args.seconds, policy=policy,
                   push=args.push, push_angle=args.push_angle, push_time=args.push_time,

@@ -7,7 +7,7 @@ import os
 from pathlib import Path
 
 from hybrid_recovery.cli.registry import command
-from hybrid_recovery.cli.validate import finite, integer, non_negative, positive
+from hybrid_recovery.cli.validate import check_model, finite, integer, non_negative, positive
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco (video)
 
@@ -16,6 +16,7 @@ def _sim2sim(args: argparse.Namespace) -> int:
     from hybrid_recovery.deploy.sim2sim import Sim2SimConfig, run_sim2sim
     from hybrid_recovery.policy import resolve_policy
 
+    check_model(args.model)
     out = Path(args.out)
     policy = args.policy
     if policy != "zero":
