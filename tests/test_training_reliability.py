@@ -128,4 +128,4 @@ def test_resume_keeps_the_runs_target_and_names_only_options_given(tmp_path, cap
                  "--iterations", "4", "--num-envs", "16", "--init-std", "0.5"]) == 0
     assert load_checkpoint(run / "latest.pt")["iter"] == 3
     assert (f"[hybrid-recovery] resuming with the run's saved settings ({config}); these "
-            "options given now are ignored: init_std, num_envs\n") in capsys.readouterr().out
+            "options given now are ignored: --init-std, --num-envs\n") in capsys.readouterr().out

@@ -113,6 +113,8 @@ def policy_meta(cfg: TrainConfig, env_cfg: EnvConfig, critic_dim: int) -> dict:
 
 _KEPT_ON_RESUME = ("iterations", "num_threads")
 """TrainConfig fields a resume takes from the options given now (when given)."""
+_OPTION = {"env_overrides": "--set", "ppo": "--symmetry"}
+"""The ``train`` option of a TrainConfig field, where it is not ``--<field-name>``."""
 
 
 def _resumed_config(run_dir: Path, saved_meta: dict, cfg: TrainConfig,
@@ -132,7 +134,8 @@ def _resumed_config(run_dir: Path, saved_meta: dict, cfg: TrainConfig,
     saved.num_threads = cfg.num_threads
     if "iterations" in given:
         saved.iterations = cfg.iterations
-    ignored = sorted(name for name in given - set(_KEPT_ON_RESUME)
+    ignored = sorted(_OPTION.get(name, "--" + name.replace("_", "-"))
+                     for name in given - set(_KEPT_ON_RESUME)
                      if getattr(cfg, name) != getattr(saved, name))
     if ignored:
         print(f"[hybrid-recovery] resuming with the run's saved settings "
