@@ -7,9 +7,7 @@ these run without cyclonedds; ``test_deploy_loopback.py`` covers the real link.
 
 from __future__ import annotations
 
-import importlib.util
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,10 +15,8 @@ import pytest
 from hybrid_recovery.deploy import bridge
 from hybrid_recovery.deploy.bridge import ControllerError, run_controller
 from hybrid_recovery.deploy.fast_dds import RawSample
-from hybrid_recovery.deploy.limits import SafetyLimits
 from hybrid_recovery.deploy.policy_runner import PolicyRunner
-from hybrid_recovery.deploy.robot_io import RobotState
-from hybrid_recovery.deploy.stand_in import write_stand_in_policy
+from hybrid_recovery.deploy.robot_io import LowStateReading
 from hybrid_recovery.deploy.state_machine import (
     Fault,
     Phase,
@@ -30,6 +26,8 @@ from hybrid_recovery.deploy.state_machine import (
 )
 from hybrid_recovery.deploy.wire import decode_low_cmd, encode_low_state
 from hybrid_recovery.robot import constants
+from hybrid_recovery.robot.limits import SafetyLimits
+from hybrid_recovery.training.stand_in import write_stand_in_policy
 
 N = constants.NUM_JOINTS
 
@@ -114,26 +112,22 @@ def test_an_inference_error_sends_damping_then_names_the_cause(monkeypatch, poli
 
 
 def test_run_robot_exits_1_with_one_error_line(monkeypatch, capsys, policy):
-    path = Path(__file__).resolve().parents[1] / "deploy" / "run_robot.py"
-    spec = importlib.util.spec_from_file_location("run_robot", path)
-    assert spec is not None and spec.loader is not None
-    script = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(script)
+    from hybrid_recovery.cli.main import main
 
     def failing(*args, **kwargs):
         raise ControllerError("the control loop failed 0.10 s after the first state "
                               "(ValueError: x); 25 damping commands sent")
 
-    monkeypatch.setattr(script, "run_controller", failing)
-    assert script.main(["--policy", str(policy)]) == 1
+    monkeypatch.setattr(bridge, "run_controller", failing)
+    assert main(["run-robot", "--policy", str(policy)]) == 1
     captured = capsys.readouterr()
     assert captured.err == ("error: the control loop failed 0.10 s after the first state "
                             "(ValueError: x); 25 damping commands sent\n")
     assert captured.out == ""
 
 
-def _state(tick: int, t: float, quat=(1.0, 0.0, 0.0, 0.0)) -> RobotState:
-    return RobotState(tick=tick, quat=np.array(quat), gyro=np.zeros(3),
+def _state(tick: int, t: float, quat=(1.0, 0.0, 0.0, 0.0)) -> LowStateReading:
+    return LowStateReading(tick=tick, quat=np.array(quat), gyro=np.zeros(3),
                       q=constants.DEFAULT_JOINT_POS.copy(), dq=np.zeros(N), tau_est=np.zeros(N),
                       t_receive=t)
 

@@ -10,9 +10,9 @@ import shutil
 import pytest
 
 from hybrid_recovery.deploy.policy_runner import PolicyMismatchError, PolicyRunner
-from hybrid_recovery.deploy.stand_in import write_stand_in_policy
 from hybrid_recovery.evaluation.controllers import make_controller
 from hybrid_recovery.policy import OnnxPolicy, load_policy_description
+from hybrid_recovery.training.stand_in import write_stand_in_policy
 
 
 @pytest.fixture(scope="module")

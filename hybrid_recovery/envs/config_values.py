@@ -29,7 +29,6 @@ RANGES: dict[str, tuple[float, bool, float]] = {
     "rewards.sigma_com": (0.0, False, math.inf),
     "rewards.sigma_cp": (0.0, False, math.inf),
     "rewards.height_band": (0.0, True, math.inf),
-    "rewards.rise_vel_max": (0.0, False, math.inf),
     "rewards.feet_flat": (0.0, True, math.inf),
     "noise.ang_vel": (0.0, True, math.inf),
     "noise.gravity": (0.0, True, math.inf),
@@ -49,14 +48,8 @@ RANGES: dict[str, tuple[float, bool, float]] = {
     "assist.fraction": (0.0, True, math.inf),
     "assist.decay": (0.0, True, 1.0),
     "assist.floor": (0.0, True, math.inf),
-    "assist.stuck_time": (0.0, False, math.inf),
-    "replay.fraction": (0.0, True, 1.0),
-    "replay.interval_s": (0.0, False, math.inf),
-    "replay.capacity": (1, True, math.inf),
     "bridge.levels": (0, True, math.inf),
     "bridge.window": (1, True, math.inf),
-    "bridge.mix": (0.0, True, 1.0),
-    "bridge.stuck_time": (0.0, False, math.inf),
 }
 """Key → (lower bound, lower bound allowed, upper bound allowed) of every number in the
 value (each entry of a pair or a table); keys not listed take any number but NaN."""

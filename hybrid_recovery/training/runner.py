@@ -117,8 +117,8 @@ _OPTION = {"env_overrides": "--set", "ppo": "--symmetry"}
 """The ``train`` option of a TrainConfig field, where it is not ``--<field-name>``."""
 
 
-def _resumed_config(run_dir: Path, saved_meta: dict, cfg: TrainConfig,
-                    given: Collection[str] | None) -> TrainConfig:
+def _resumed_config(run_dir: Path, cfg: TrainConfig,
+                    given: Collection[str] | None = None) -> TrainConfig:
     """The run's own saved TrainConfig (a resume continues the same run), taking from
     ``cfg`` only ``num_threads`` and, where given, ``iterations`` (else the run's own
     target); the other ``given`` fields that differ from the run's are named as ignored.
@@ -127,9 +127,9 @@ def _resumed_config(run_dir: Path, saved_meta: dict, cfg: TrainConfig,
         given: TrainConfig field names the caller set (the CLI: the options given);
             None: every field.
     """
-    if not saved_meta:
+    if not (run_dir / RUN_CONFIG).is_file():
         return cfg
-    saved = train_config_from_dict(saved_meta["train_config"])
+    saved = train_config_from_dict(read_run_config(run_dir)["train_config"])
     given = {f.name for f in dataclasses.fields(TrainConfig)} if given is None else set(given)
     saved.num_threads = cfg.num_threads
     if "iterations" in given:
@@ -152,40 +152,20 @@ def _run_files(run_dir: Path) -> list[Path]:
     return sorted(p for pattern in _RUN_FILES for p in run_dir.glob(pattern))
 
 
-def reference_amendments(reference: str | Path) -> list[dict]:
-    """The amendments of a reference run (its directory or its ``config.json``).
-
-    Raises:
-        FileNotFoundError: no such run or file.
-    """
-    path = Path(reference)
-    path = path / "config.json" if path.is_dir() else path
-    if not path.is_file():
-        raise FileNotFoundError(f"no reference run config at {path}")
-    return list(json.loads(path.read_text()).get("amendments", []))
-
-
-def _replayed(amendments: list[dict], reference: str) -> int:
-    return sum(1 for a in amendments if a.get("from") == reference)
-
-
 def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
-          amend: dict | None = None, follow: str | Path | None = None, force: bool = False,
+          amend: dict | None = None, force: bool = False,
           given: Collection[str] | None = None) -> RecoveryRunner:
     """Trains (or resumes) a run in ``run_dir`` up to ``cfg.iterations`` iterations.
 
     The run directory holds ``config.json`` (resolved train and env configs, git commit,
-    amendments), TensorBoard logs, ``model_<it>.pt`` checkpoints and ``latest.pt``.
+    amendments), TensorBoard logs, ``model_<it>.pt`` checkpoints and ``latest.pt``. Every
+    setting is checked before a file is written.
 
     Args:
         amend: changes to a resumed run's saved settings (``ppo.<field>`` or dotted
             EnvConfig keys, see :func:`amend_train_config`). Each amendment is kept in
             ``config.json`` and the checkpoints' metadata with the iteration it starts at,
             so a run's history stays readable.
-        follow: a reference run (directory or ``config.json``) whose amendments are
-            replayed here at the iterations where the reference made them, so that an
-            ablation keeps the reference's recipe; kept in ``config.json``, so a resume
-            goes on following it.
         force: start over in a directory that holds a run: its checkpoints, settings
             and TensorBoard logs are removed (only once the new settings are checked).
         given: with ``resume``, the TrainConfig fields the caller set (see
@@ -218,19 +198,10 @@ def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
     amendments: list[dict] = []
     saved_meta = read_run_config(run_dir) \
         if resume and (run_dir / RUN_CONFIG).is_file() else {}
-    follow = str(follow) if follow is not None else saved_meta.get("follow")
-    replay = reference_amendments(follow) if follow else []
     start = int(checkpoint["iter"]) + 1 if resume else 0
     if resume:
-        cfg = _resumed_config(run_dir, saved_meta, cfg, given)
+        cfg = _resumed_config(run_dir, cfg, given)
         amendments = saved_meta.get("amendments", [])
-        due = [a for a in replay[_replayed(amendments, str(follow)):] if a["iteration"] <= start]
-        for a in due:  # the reference's amendments this run has reached
-            cfg = amend_train_config(cfg, a["changes"])
-            amendments.append({"iteration": start, "changes": dict(a["changes"]),
-                               "git_commit": _git_commit(), "from": follow})
-            print(f"[hybrid-recovery] replaying {follow}'s amendment of iteration "
-                  f"{a['iteration']}: {a['changes']}", flush=True)
         if amend:
             cfg = amend_train_config(cfg, amend)
             amendments.append({"iteration": start, "changes": dict(amend),
@@ -245,8 +216,7 @@ def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
             old.unlink()
     run_dir.mkdir(parents=True, exist_ok=True)
     critic_dim = int(env.get_observations()["critic"].shape[1])
-    meta = {**policy_meta(cfg, env_cfg, critic_dim), "amendments": amendments,
-            **({"follow": follow} if follow else {})}
+    meta = {**policy_meta(cfg, env_cfg, critic_dim), "amendments": amendments}
     atomic_write_text(json.dumps(meta, indent=2, default=str), run_dir / RUN_CONFIG)
     runner = RecoveryRunner(env, runner_dict(cfg), str(run_dir), meta, cfg.keep_checkpoints)
     if resume:
@@ -256,10 +226,6 @@ def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
         print(f"[hybrid-recovery] resumed {run_dir} at iteration "
               f"{runner.current_learning_iteration}, curriculum stage "
               f"{env.curriculum.stage} level {env.curriculum.level:.2f}", flush=True)
-    pending = [a["iteration"] for a in replay[_replayed(amendments, str(follow)):]]
-    stop = min([cfg.iterations, *pending])
-    if stop > runner.current_learning_iteration:
-        runner.learn(stop - runner.current_learning_iteration)
-    if stop < cfg.iterations:  # at the reference's next amendment: resume with it
-        return train(run_dir, cfg, resume=True)
+    if cfg.iterations > runner.current_learning_iteration:
+        runner.learn(cfg.iterations - runner.current_learning_iteration)
     return runner
