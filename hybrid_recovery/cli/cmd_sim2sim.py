@@ -6,12 +6,14 @@ import argparse
 from pathlib import Path
 
 from hybrid_recovery.cli.registry import command
+from hybrid_recovery.cli.validate import check_model, finite, integer, non_negative, positive
 
 
 def _sim2sim(args: argparse.Namespace) -> int:
     from hybrid_recovery.deploy.sim2sim import Sim2SimConfig, run_sim2sim
     from hybrid_recovery.policy import resolve_policy
 
+    check_model(args.model)
     out = Path(args.out)
     policy = args.policy
     if policy != "zero":
@@ -46,17 +48,17 @@ def _configure(p: argparse.ArgumentParser) -> None:
                    help="H1-2 MJCF (default: the project's model), e.g. the manufacturer's "
                         "h1_2_handless.xml from unitree_ros")
     p.add_argument("--pose", default="standing", choices=POSES)
-    p.add_argument("--seconds", type=float, default=10.0)
-    p.add_argument("--push", type=float, default=0.0, help="torso push force [N]")
-    p.add_argument("--push-angle", type=float, default=0.0,
+    p.add_argument("--seconds", type=positive, default=10.0)
+    p.add_argument("--push", type=non_negative, default=0.0, help="torso push force [N]")
+    p.add_argument("--push-angle", type=finite, default=0.0,
                    help="push direction in the world x-y plane [deg], 0 = +x")
-    p.add_argument("--push-time", type=float, default=2.0, help="[s]")
-    p.add_argument("--push-duration", type=float, default=0.2, help="[s]")
-    p.add_argument("--delay-ms", type=float, default=0.0, help="actuation delay [ms]")
+    p.add_argument("--push-time", type=non_negative, default=2.0, help="[s]")
+    p.add_argument("--push-duration", type=positive, default=0.2, help="[s]")
+    p.add_argument("--delay-ms", type=non_negative, default=0.0, help="actuation delay [ms]")
     p.add_argument("--startup", action="store_true",
                    help="zero torque → interpolate → hold before the policy, as on hardware")
     p.add_argument("--no-video", action="store_true")
-    p.add_argument("--fps", type=int, default=25)
+    p.add_argument("--fps", type=integer(1), default=25)
     p.add_argument("--out", default="sim2sim_out", help="output directory")
 
 

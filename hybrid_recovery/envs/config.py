@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import dataclasses
+import typing
 from dataclasses import dataclass, field
 from typing import Any
 
+from hybrid_recovery.envs.config_values import checked_value
 from hybrid_recovery.robot.action import TARGET_RANGE_FACTOR
 from hybrid_recovery.robot.constants import UPRIGHT_COM_HEIGHT
 
@@ -302,18 +304,22 @@ def default_config() -> EnvConfig:
 def apply_overrides(cfg: Any, overrides: dict[str, Any]) -> Any:
     """Applies dotted overrides, e.g. ``{"rewards.w_cp": 0.0, "num_envs": 64}``.
 
+    Each value is checked against its field's declared type and range
+    (:func:`~hybrid_recovery.envs.config_values.checked_value`): ``"abc"`` for a number
+    or ``0`` for ``physics_dt`` is refused here, not met later as a TypeError.
+
     Raises:
         KeyError: naming the unknown key and the valid ones at that level.
+        ValueError: ``config key '<key>' must be ..., got <value>``.
     """
     for dotted, value in overrides.items():
         target = cfg
         *path, last = dotted.split(".")
         for part in path:
             target = _field(target, part, dotted)
-        current = _field(target, last, dotted)
-        if isinstance(current, tuple) and isinstance(value, list):
-            value = tuple(value)
-        setattr(target, last, value)
+        _field(target, last, dotted)
+        hint = typing.get_type_hints(type(target))[last]
+        setattr(target, last, checked_value(dotted, value, hint))
     return cfg
 
 

@@ -108,14 +108,14 @@ def make_controller(spec: str):
         kind, arg = "onnx", SHIPPED
     if kind == "hybrid" and not arg:
         arg = SHIPPED
-    if kind in ("onnx", "hybrid") and arg == SHIPPED:
+    if kind == "onnx" and not arg:
+        raise ValueError("onnx controller needs a path: onnx:PATH")
+    if kind in ("onnx", "hybrid") and arg:
         try:
             arg = str(resolve_policy(arg))
         except FileNotFoundError as err:
             raise ValueError(str(err)) from err
     if kind == "onnx":
-        if not arg:
-            raise ValueError("onnx controller needs a path: onnx:PATH")
         return OnnxPolicyController(arg)
     if kind in ("qp", "hybrid"):
         try:
