@@ -29,9 +29,9 @@ class PhysicsReplay:
         self._start: dict[str, np.ndarray] = {}
         physics = env._physics
 
-        def recording_physics():
+        def recording_physics(*args, **kwargs):
             self.inputs.append((env.ctrl.copy(), env.xfrc.copy()))
-            return physics()
+            return physics(*args, **kwargs)
 
         env._physics = recording_physics
 
