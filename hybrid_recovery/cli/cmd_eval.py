@@ -31,7 +31,7 @@ def _run(args: argparse.Namespace, controller: str, out: Path) -> list[dict]:
               "poses": list(args.poses) if args.poses else None, "duration": args.duration}
     return run_protocol(_scenarios(args), controller, out / "results.jsonl",
                         model_path=args.model, contact=args.contact, workers=args.workers,
-                        header=header)
+                        header=header, rotor_inertia=args.rotor_inertia)
 
 
 def _eval(args: argparse.Namespace) -> int:
@@ -67,6 +67,9 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--model", default=None, help="another robot MJCF (sim-to-sim)")
     p.add_argument("--contact", default="default", help="contact preset (sim-to-sim)")
+    p.add_argument("--rotor-inertia", action="store_true",
+                   help="give the joints the project's rotor inertia (armature), for a "
+                        "model file without it such as the manufacturer's")
     p.add_argument("--workers", type=int, default=2)
 
 

@@ -43,17 +43,20 @@ def check_torque_model(model: mujoco.MjModel) -> None:
             raise ValueError(MODEL_MESSAGE)
 
 
-def torque_spec(path: str | Path | None = None, timestep: float = CONTROL_DT) -> mujoco.MjSpec:
+def torque_spec(path: str | Path | None = None, timestep: float = CONTROL_DT,
+                rotor_inertia: bool = False) -> mujoco.MjSpec:
     """The H1-2 spec with a floor and 27 motor actuators in motor order.
 
     Args:
         path: Robot MJCF; ``None`` for the project's H1-2.
         timestep: Physics step [s].
+        rotor_inertia: Give the joints the project's rotor inertia (armature) [kg·m²].
 
     Returns:
         The spec (extend it, e.g. with sensors, then compile).
     """
-    spec = load_spec(path, floor=True, actuators=False, timestep=timestep)
+    spec = load_spec(path, floor=True, actuators=False, timestep=timestep,
+                     rotor_inertia=rotor_inertia)
     for name, tau_max in zip(constants.JOINT_NAMES, constants.EFFORT_LIMITS, strict=True):
         motor = spec.add_actuator(name=name, target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
         motor.set_to_motor()
@@ -62,7 +65,7 @@ def torque_spec(path: str | Path | None = None, timestep: float = CONTROL_DT) ->
     return spec
 
 
-def load_torque_model(path: str | Path | None = None, timestep: float = CONTROL_DT
-                      ) -> mujoco.MjModel:
+def load_torque_model(path: str | Path | None = None, timestep: float = CONTROL_DT,
+                      rotor_inertia: bool = False) -> mujoco.MjModel:
     """Compiles :func:`torque_spec`: ``ctrl`` = joint torques τ (27,) [N·m], motor order."""
-    return torque_spec(path, timestep).compile()
+    return torque_spec(path, timestep, rotor_inertia).compile()

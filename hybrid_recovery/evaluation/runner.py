@@ -18,12 +18,15 @@ from hybrid_recovery.policy.onnx_policy import DESCRIPTION
 _WORKER: dict = {}
 
 
-def _init_worker(controller: str, model_path: str | None, contact: str) -> None:
-    _WORKER.update(controller=make_controller(controller), model=model_path, contact=contact)
+def _init_worker(controller: str, model_path: str | None, contact: str,
+                 rotor_inertia: bool = False) -> None:
+    _WORKER.update(controller=make_controller(controller), model=model_path, contact=contact,
+                   rotor_inertia=rotor_inertia)
 
 
 def _work(scenario: Scenario) -> dict:
-    return run_trial(_WORKER["controller"], scenario, _WORKER["model"], _WORKER["contact"])
+    return run_trial(_WORKER["controller"], scenario, _WORKER["model"], _WORKER["contact"],
+                     rotor_inertia=_WORKER["rotor_inertia"])
 
 
 def completed_keys(results: Path) -> set[str]:
@@ -101,14 +104,15 @@ def header_provenance(header: dict) -> dict | None:
 
 def run_protocol(scenarios: list[Scenario], controller: str, results: str | Path,
                  model_path: str | None = None, contact: str = "default", workers: int = 2,
-                 header: dict | None = None, progress: bool = True) -> list[dict]:
+                 header: dict | None = None, progress: bool = True,
+                 rotor_inertia: bool = False) -> list[dict]:
     """Runs every scenario not yet in ``results`` and appends one JSON line per trial.
 
     A killed run resumes where it stopped: finished trials are skipped by key. The first
     line of a new file is a header with the controller (and its policy's provenance), the
-    model, the contact setting and ``header`` (the protocol's configuration and seed); an
-    existing file is resumed only if its header is the same, since trial keys name the
-    scenario, not who ran it.
+    model, the contact setting, the rotor inertia and ``header`` (the protocol's
+    configuration and seed); an existing file is resumed only if its header is the same,
+    since trial keys name the scenario, not who ran it.
 
     Returns:
         All result rows of the file (old and new).
@@ -121,6 +125,8 @@ def run_protocol(scenarios: list[Scenario], controller: str, results: str | Path
     built = make_controller(controller)  # fail fast on a bad spec, before forking
     meta = {"key": "__header__", "controller": controller, "model": model_path,
             "contact": contact, **(header or {})}
+    if rotor_inertia:  # absent otherwise: older results files stay resumable
+        meta["rotor_inertia"] = True
     if (policy := policy_provenance(built)) is not None:
         meta["policy"] = policy
     if results.is_file():
@@ -134,12 +140,13 @@ def run_protocol(scenarios: list[Scenario], controller: str, results: str | Path
         if results.read_bytes()[-1:] not in (b"", b"\n"):
             out.write("\n")  # end a line torn by a killed run
         if workers <= 1:
-            _init_worker(controller, model_path, contact)
+            _init_worker(controller, model_path, contact, rotor_inertia)
             rows: Iterator[dict] = map(_work, todo)
             pool = None
         else:
             pool = mp.get_context("fork").Pool(workers, _init_worker,
-                                               (controller, model_path, contact))
+                                               (controller, model_path, contact,
+                                                rotor_inertia))
             rows = pool.imap_unordered(_work, todo)
         try:
             for row in rows:
