@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 from hybrid_recovery.cli.registry import command
+from hybrid_recovery.evaluation.scenario import SWEEP_DIRECTIONS
 
 
 def _scenarios(args: argparse.Namespace):
@@ -21,6 +22,13 @@ def _scenarios(args: argparse.Namespace):
         for pose in args.poses:
             check_pose(pose)
         kwargs["poses"] = tuple(args.poses)
+    for name in ("forces", "directions", "heights"):
+        value = getattr(args, name)
+        if value is None:
+            continue
+        if args.protocol == "poses" or (args.protocol == "pushes" and name == "heights"):
+            raise SystemExit(f"eval: --{name} does not apply to the {args.protocol} protocol")
+        kwargs[name] = tuple(value)
     return PROTOCOLS[args.protocol](args.trials, **kwargs)
 
 
@@ -29,6 +37,9 @@ def _run(args: argparse.Namespace, controller: str, out: Path) -> list[dict]:
 
     header = {"protocol": args.protocol, "trials": args.trials, "seed": args.seed,
               "poses": list(args.poses) if args.poses else None, "duration": args.duration}
+    for name in ("forces", "directions", "heights"):  # recorded only when restricted
+        if getattr(args, name) is not None:
+            header[name] = list(getattr(args, name))
     return run_protocol(_scenarios(args), controller, out / "results.jsonl",
                         model_path=args.model, contact=args.contact, workers=args.workers,
                         header=header, rotor_inertia=args.rotor_inertia)
@@ -64,6 +75,12 @@ def _common(p: argparse.ArgumentParser) -> None:
                    help="poses: trials in all; sweep/pushes: trials per cell")
     p.add_argument("--poses", nargs="*", default=None, help="poses, sweep: only these start poses")
     p.add_argument("--duration", type=float, default=None, help="trial length [s]")
+    p.add_argument("--forces", type=float, nargs="+", default=None,
+                   help="sweep/pushes: only these push forces [N]")
+    p.add_argument("--directions", nargs="+", default=None, choices=list(SWEEP_DIRECTIONS),
+                   help="sweep/pushes: only these push directions")
+    p.add_argument("--heights", type=float, nargs="+", default=None,
+                   help="sweep: only these push heights relative to the CoM [m]")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--model", default=None, help="another robot MJCF (sim-to-sim)")
     p.add_argument("--contact", default="default", help="contact preset (sim-to-sim)")
