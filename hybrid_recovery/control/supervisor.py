@@ -64,6 +64,9 @@ class HybridSupervisor:
         mode: ``"qp"`` or ``"policy"``.
         events: Switching decisions (``"to_policy"``, ``"to_qp"``) with their reasons.
         diagnostics: The last tick's :class:`TickDiagnostics` of the capturability check.
+        joint_target: When the last output was the policy's PD law alone, its joint
+            targets q_ref (27,) [rad] (for PD servos: the same torque without the
+            round trip through τ, exact also where τ is clipped); None otherwise.
     """
 
     def __init__(self, balance: BalanceController, policy: PolicyController,
@@ -73,6 +76,7 @@ class HybridSupervisor:
         self.mode = QP
         self.events: list[Event] = []
         self.diagnostics: TickDiagnostics | None = None
+        self.joint_target: np.ndarray | None = None
         self._timer = 0.0
         self._switch_time = -np.inf
         self._q_switch = np.zeros(0)
@@ -114,6 +118,7 @@ class HybridSupervisor:
         check_state(data)
         t, dt = float(data.time), float(model.opt.timestep)
         cfg = self.config
+        self.joint_target = None
         q_ref = self.policy.update_targets(model, data)  # warm in either mode
         if self.mode == QP:
             torque = self.balance(model, data)
@@ -139,7 +144,8 @@ class HybridSupervisor:
         self._timer = self._timer + dt if standing else 0.0
         q, qd = self.policy.joints(data)
         alpha = self._alpha(t, cfg.to_policy_blend)
-        policy_torque = pd_torque((1.0 - alpha) * self._q_switch + alpha * q_ref, q, qd)
+        target = (1.0 - alpha) * self._q_switch + alpha * q_ref
+        policy_torque = pd_torque(target, q, qd)
         if self._timer >= cfg.to_qp_dwell - 1e-9:
             self.mode, self._timer, self._switch_time = QP, 0.0, t
             self.events.append(Event(t, "to_qp", f"standing for {cfg.to_qp_dwell:.2f} s "
@@ -148,6 +154,7 @@ class HybridSupervisor:
             torque = self.balance(model, data)
             alpha = self._alpha(t, cfg.to_qp_blend)
             return policy_torque * (1.0 - alpha) + alpha * torque
+        self.joint_target = target
         return policy_torque
 
     def _to_policy(self, model: mujoco.MjModel, data: mujoco.MjData, reason: str) -> np.ndarray:
@@ -158,4 +165,5 @@ class HybridSupervisor:
         q_ref = self.policy.update_targets(model, data)
         q, qd = self.policy.joints(data)
         alpha = self._alpha(t, self.config.to_policy_blend)
-        return pd_torque((1.0 - alpha) * self._q_switch + alpha * q_ref, q, qd)
+        self.joint_target = (1.0 - alpha) * self._q_switch + alpha * q_ref
+        return pd_torque(self.joint_target, q, qd)
