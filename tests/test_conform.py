@@ -9,10 +9,10 @@ import pytest
 from conftest import REFERENCE_MJCF
 
 from hybrid_recovery.control import BalanceController, load_torque_model, run_episode
-from hybrid_recovery.envs.initial_states import seat_single
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.conform import project_armature, sole_site_names
 from hybrid_recovery.robot.mjcf import H1_2_MJCF, default_qpos, load_mjmodel
+from hybrid_recovery.sim.initial_states import seat_single
 
 
 def _reference() -> str:

@@ -8,10 +8,10 @@ import pytest
 import torch
 
 from hybrid_recovery.envs import RecoveryEnv, default_config
-from hybrid_recovery.envs.initial_states import POSES
 from hybrid_recovery.envs.rewards import REWARD_TERMS
 from hybrid_recovery.envs.terminations import TERMINATIONS
 from hybrid_recovery.observation import ACTOR_OBS_DIM
+from hybrid_recovery.sim.initial_states import POSES
 
 NUM_ENVS = 8
 EPISODE_STEPS = 12

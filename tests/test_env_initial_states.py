@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 from hybrid_recovery.envs import RecoveryEnv, default_config
-from hybrid_recovery.envs.initial_states import POSES, robot_geoms
+from hybrid_recovery.sim.initial_states import POSES, robot_geoms
 
 NUM_ENVS = 16
 POOL_COM = {"standing": (0.88, 0.95), "squatting": (0.48, 0.62), "kneeling": (0.30, 0.60),

@@ -15,10 +15,10 @@ import pytest
 
 from hybrid_recovery.dynamics import RobotModel
 from hybrid_recovery.dynamics.support import signed_distance
-from hybrid_recovery.envs.play import play
-from hybrid_recovery.envs.render import BalanceOverlay, add_overlay, balance_overlay
-from hybrid_recovery.envs.scene import build_scene
+from hybrid_recovery.evaluation.play import play
 from hybrid_recovery.robot.mjcf import default_qpos
+from hybrid_recovery.sim.render import BalanceOverlay, add_overlay, balance_overlay
+from hybrid_recovery.sim.scene import build_scene
 
 
 @pytest.fixture(scope="module")

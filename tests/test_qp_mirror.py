@@ -12,12 +12,12 @@ import mujoco
 import numpy as np
 import pytest
 
-from hybrid_recovery.envs.initial_states import mirror_qpos
 from hybrid_recovery.evaluation.controllers import make_controller
 from hybrid_recovery.evaluation.scenario import SWEEP_DIRECTIONS, Scenario
 from hybrid_recovery.evaluation.trial import run_trial, start_state
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.mjcf import load_mjmodel
+from hybrid_recovery.sim.initial_states import mirror_qpos
 
 
 def _push(direction: str, force: float = 300.0, seed: int = 3) -> Scenario:

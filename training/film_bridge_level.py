@@ -10,6 +10,7 @@ episode's end is left grey. Needs an OpenGL context (``MUJOCO_GL=egl`` or ``osme
 
 from __future__ import annotations
 
+import argparse
 import os
 from pathlib import Path
 
@@ -23,10 +24,9 @@ import mujoco  # noqa: E402
 import numpy as np  # noqa: E402
 import torch  # noqa: E402
 
-from hybrid_recovery.envs.render import BalanceRenderer, add_overlay, balance_overlay  # noqa: E402
+from hybrid_recovery.sim.render import BalanceRenderer, add_overlay, balance_overlay  # noqa: E402
 from hybrid_recovery.training.probe import (  # noqa: E402
     bridge_env,
-    bridge_probe_parser,
     ended_episodes,
     heading_xy,
     start_episodes,
@@ -95,8 +95,20 @@ def sheet(film: dict, times: list[float], title: str, out: Path, size: int = 260
     plt.close(fig)
 
 
+def _parser() -> argparse.ArgumentParser:
+    """Runs, --levels K, --envs, --source, --target, --seed."""
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("runs", type=Path, nargs="+")
+    parser.add_argument("--levels", type=int, default=8)
+    parser.add_argument("--envs", type=int, default=64, help="episodes per level and run")
+    parser.add_argument("--source", default="half_kneeling")
+    parser.add_argument("--target", default="kneeling")
+    parser.add_argument("--seed", type=int, default=7)
+    return parser
+
+
 def main() -> None:
-    parser = bridge_probe_parser(__doc__.split("\n")[0])
+    parser = _parser()
     parser.add_argument("--at", type=int, required=True, help="the bridge level k (of K)")
     parser.add_argument("--episodes", type=int, default=3)
     parser.add_argument("--times", type=float, nargs="+", default=list(DEFAULT_TIMES))

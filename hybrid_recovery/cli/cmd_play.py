@@ -13,7 +13,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 
 def _play(args: argparse.Namespace) -> int:
-    from hybrid_recovery.envs.play import onnx_policy, play
+    from hybrid_recovery.evaluation.play import onnx_policy, play
     from hybrid_recovery.policy import resolve_policy
 
     policy = None if args.policy in (None, "zero") else onnx_policy(resolve_policy(args.policy))
@@ -26,7 +26,7 @@ def _play(args: argparse.Namespace) -> int:
 
 
 def _configure_play(p: argparse.ArgumentParser) -> None:
-    from hybrid_recovery.envs.initial_states import POSES
+    from hybrid_recovery.sim.initial_states import POSES
 
     p.add_argument("--policy", default="shipped",
                    help="policy.onnx (or its export directory); 'shipped' for the shipped "

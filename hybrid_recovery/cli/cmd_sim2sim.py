@@ -20,7 +20,7 @@ def _sim2sim(args: argparse.Namespace) -> int:
     if policy != "zero":
         policy = resolve_policy(policy)
     else:
-        from hybrid_recovery.deploy.stand_in import write_stand_in_policy
+        from hybrid_recovery.training.stand_in import write_stand_in_policy
 
         policy = write_stand_in_policy(out / "stand_in_policy", "zero")
     cfg = Sim2SimConfig(model_path=args.model, rotor_inertia=args.rotor_inertia,
@@ -39,7 +39,7 @@ def _sim2sim(args: argparse.Namespace) -> int:
 
 
 def _configure(p: argparse.ArgumentParser) -> None:
-    from hybrid_recovery.envs.initial_states import POSES
+    from hybrid_recovery.sim.initial_states import POSES
 
     p.add_argument("--policy", default="shipped",
                    help="exported policy directory, 'shipped' (the policy shipped in "

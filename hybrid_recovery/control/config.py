@@ -9,6 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from hybrid_recovery.control.diagnostics import Capturability
+from hybrid_recovery.robot.constants import UPRIGHT_COM_HEIGHT
 
 
 @dataclass
@@ -163,7 +164,7 @@ class SupervisorConfig:
     """ξ at least this far inside the feet polygon to go back to the QP [m]."""
     to_qp_max_com_speed: float = 0.15
     """CoM speed below this to go back to the QP [m/s]."""
-    to_qp_min_com_height: float = 0.85
+    to_qp_min_com_height: float = UPRIGHT_COM_HEIGHT
     """CoM height above this to go back to the QP [m]."""
     to_policy_blend: float = 0.05
     """QP → policy hand-over: joint targets ramp from the measured joints to the policy's

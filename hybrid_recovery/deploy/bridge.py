@@ -22,19 +22,19 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from hybrid_recovery.deploy.fast_dds import FastLink
-from hybrid_recovery.deploy.limits import SafetyLimits
 from hybrid_recovery.deploy.policy_runner import PolicyRunner
-from hybrid_recovery.deploy.robot_io import RobotState
+from hybrid_recovery.deploy.robot_io import LowStateReading
 from hybrid_recovery.deploy.state_machine import Phase, SafetyConfig, SafetyStateMachine
 from hybrid_recovery.deploy.timing import LoopStats, PeriodicClock, try_realtime
 from hybrid_recovery.deploy.wire import decode_low_state, encode_low_cmd
+from hybrid_recovery.robot.limits import SafetyLimits
 
 if TYPE_CHECKING:
     from hybrid_recovery.deploy.sim_robot import SimRobot, SimRobotConfig
 
 NO_STATE_HINT = (
     "no LowState_ on rt/lowstate within {timeout} s (domain {domain}, interface {iface}). "
-    "Is the robot (or deploy/sim_robot.py) running on this domain and interface? On the "
+    "Is the robot (or hybrid-recovery sim-robot) running on this domain and interface? On the "
     "real H1-2: its stack uses cyclonedds 0.10.x, which does not talk to cyclonedds 11 "
     "(see deploy/README.md)."
 )
@@ -78,7 +78,7 @@ def run_controller(policy_dir: str | Path, domain_id: int = 0, interface: str = 
                                                 iface=interface))
     clock = PeriodicClock(sm.config.period_s)
     stats = LoopStats(sm.config.period_s)
-    state: RobotState | None = None
+    state: LowStateReading | None = None
     seen, bad, ticks, sent = 0, 0, [], 0
     t_start, t_damping = clock.t0, None
     try:

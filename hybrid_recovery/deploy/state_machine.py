@@ -29,10 +29,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from hybrid_recovery.deploy.limits import SafetyLimits
-from hybrid_recovery.deploy.robot_io import JointCommand, RobotState
-from hybrid_recovery.policy.action import TARGET_RANGE_FACTOR
+from hybrid_recovery.deploy.robot_io import JointCommand, LowStateReading
 from hybrid_recovery.robot import constants
+from hybrid_recovery.robot.action import TARGET_RANGE_FACTOR
+from hybrid_recovery.robot.limits import SafetyLimits
 
 _EPS = 1e-6  # [s]: a phase of 0.5 s ends on the tick at 0.5 s despite float rounding
 
@@ -125,7 +125,7 @@ class SafetyStateMachine:
         self._kp, self._kd = c.limits.clamp_gains(c.kp, c.kd)
         self._damping_kd = c.limits.clamp_gains(c.kp, c.damping_kd)[1]
         self._q_lo, self._q_hi = c.limits.q_ref_bounds(c.q_ref_range_factor)
-        self._state: RobotState | None = None
+        self._state: LowStateReading | None = None
         self._t_new_state = 0.0
         self._t_phase = 0.0
         self._last_tick: float | None = None
@@ -144,12 +144,12 @@ class SafetyStateMachine:
         self._start_requested = True
 
     @property
-    def state(self) -> RobotState | None:
+    def state(self) -> LowStateReading | None:
         """The newest valid state seen."""
         return self._state
 
     # ------------------------------------------------------------------ the tick
-    def tick(self, now: float, state: RobotState | None,
+    def tick(self, now: float, state: LowStateReading | None,
              policy: PolicyOutput | None = None) -> JointCommand | None:
         """Advances the machine and returns the command to send (None: send nothing).
 

@@ -6,7 +6,8 @@ import dataclasses
 from dataclasses import dataclass, field
 from typing import Any
 
-from hybrid_recovery.policy.action import TARGET_RANGE_FACTOR
+from hybrid_recovery.robot.action import TARGET_RANGE_FACTOR
+from hybrid_recovery.robot.constants import UPRIGHT_COM_HEIGHT
 
 
 @dataclass
@@ -37,10 +38,6 @@ class RewardConfig:
     w_rise: float = 1.0
     alpha_rise: float = 4.0
     """α_r [1/(m/s)]."""
-    rise_vel_max: float = float("inf")
-    """ḣ_max [m/s]: r_rise pays min(ḣ_c, ḣ_max); the paper's r_rise is unbounded (∞). The
-    rises the policy found by 6575 are one thrust (up within 0.4–0.6 s), which from the
-    kneel throws the robot onto its face; a cap stops paying for the speed of that thrust."""
     w_fall: float = 1.0
     alpha_fall: float = 4.0
     """α_f [1/(m/s)²]."""
@@ -85,13 +82,6 @@ class RewardConfig:
     feet_flat: float = 0.5
     """u_min: a foot counts fully when its sole normal is vertical, not at all once
     u_z ≤ u_min (60° tilt), linearly in between."""
-    w_shin: float = 0.0
-    """Weight of r_shin, the mean height of the knees above the ankles over a shin length
-    (beyond the paper, off by default). Why: from the kneel and the half-kneel→kneel
-    blends beyond 3/8, full_bridge_feet and its forks thrust upward with both shins on
-    the ground and pitch forward over the knees (training/README.md); r_feet pays only
-    once a flat foot bears weight, r_shin already while a knee is lifted over its foot,
-    the first half of the step to a half-kneel."""
     w_alive: float = 1.0
     w_termination: float = -100.0
     """Early-termination penalty (timeouts excluded), × Δt like every term."""
@@ -216,55 +206,16 @@ class AssistConfig:
     """CoM height h_c above which the force stops [m]: a pull up to standing height that
     leaves the robot to stand on its own rather than carrying it off the ground
     (0.8 m g lifts a lying H1-2 to h_c ≈ 1.2 m; 1.0 m g off the ground)."""
-    mode: str = "pull"
-    """Where the force acts. ``pull``: on the torso, F_z = f m g. ``gravity``: on every
-    body at its centre of mass, F_z,b = f m_b g, so that the assisted robot moves as under
-    gravity (1 − f) g: its feet, knees and hands still carry the rest of its weight and
-    nothing holds it up that it does not push against (the pull, at 0.72 m g, held a
-    kneeling policy at its stop height, below the success height; full_se 2725)."""
     poses: list[str] | None = None
     """Start poses whose episodes get the force and whose outcomes (stood up or not)
     anneal it, while the other episodes go on counting for the curriculum; None: every
     episode is assisted and the curriculum waits for the assistance to end."""
-    stuck_time: float | None = None
-    """Stuck-low window of assisted episodes [s] (``inf``: none); None: the env's
-    ``stuck_time``, as for every episode. Why one might lengthen it: with the corrected
-    2 s detector (full_se 2451 on), assisted training episodes from kneeling stood up in
-    4 % against 43 % before it, when the faulty detector seldom ended them; the robot
-    hangs at the pull's stop height, below the success height, and is ended after 2 s.
-    Measured: 6 s (the full_stuck fork, 2776–3050) made episodes 20 % longer and brought
-    no stand-ups back (training/README.md)."""
-
-
-@dataclass
-class ReplayConfig:
-    """Start-state replay (beyond the paper; off by default), see
-    :mod:`hybrid_recovery.envs.replay`.
-
-    States sampled every ``interval_s`` along episodes from ``poses`` that stood up, taken
-    while the CoM was still below the success height, are buffered; a ``fraction`` of
-    resets then starts from one of them, unassisted. With assistance restricted to the low
-    poses (``assist.poses``) no episode from those poses is ever unaided, so the policy
-    never practises the rise it has to make alone; replayed starts are such episodes, and
-    they begin at every phase of rises it has made with help. Their outcomes are logged
-    as ``replay/*`` and count neither for the curriculum nor for the assistance.
-    """
-
-    fraction: float = 0.0
-    """Share of resets that start from a buffered state; 0 = off (the paper)."""
-    poses: tuple[str, ...] | None = None
-    """Start poses whose stand-ups are recorded; None: every pose."""
-    interval_s: float = 0.5
-    """Sampling period along an episode [s]."""
-    capacity: int = 4096
-    """Buffered states (a ring: the oldest are replaced). Not saved with checkpoints: a
-    resumed run refills it from its first stand-ups."""
 
 
 @dataclass
 class BridgeConfig:
     """Start-pose bridges (beyond the paper; off by default), see
-    :mod:`hybrid_recovery.envs.bridge`.
+    :mod:`hybrid_recovery.envs.pose_bridge`.
 
     For each (source, target) of ``pairs``, episodes drawn for the target start instead
     from a blend of the two poses — joint angles and base pitch interpolated, settled
@@ -290,19 +241,6 @@ class BridgeConfig:
     run's fork stalled 200 iterations at kneeling 3/8 (3–6 % stood up) and sitting 4/8
     (0 %), where 2/8 and 3/8 had passed 0.3."""
     window: int = 256
-    mix: float = 0.0
-    """Fraction of a bridge's starts drawn uniformly from its levels below the current one
-    (0: all at the current level); only starts at the current level count toward its
-    window. Why: at levels 16, the full_bridge fork oscillated 300 iterations between
-    kneeling 4/16 and 6/16 and sitting 4/16 and 7/16, the rises of the levels it had
-    passed no longer trained."""
-    stuck_time: float | None = None
-    """Stuck-low window [s] of the episodes of the bridges' target poses (any level);
-    None: the env's ``stuck_time``. Why one might lengthen it: from the kneel and its
-    blends beyond 3/8, full_bridge_feet 4800 (deterministic) pitches forward over its knees
-    in its first 0.3 s (the CoM 0.45 m ahead of its start, the feet kicked up 0.6 m behind)
-    and is ended at 2.0 s in every episode: one attempt per episode, while its rises from
-    3/8 take longer."""
 
 
 @dataclass
@@ -346,7 +284,7 @@ class EnvConfig:
     wiggling.)"""
     stuck_rise: float = 0.02
     """[m]."""
-    upright_height: float = 0.85
+    upright_height: float = UPRIGHT_COM_HEIGHT
     """CoM height of the success criterion [m]."""
     rewards: RewardConfig = field(default_factory=RewardConfig)
     noise: NoiseConfig = field(default_factory=NoiseConfig)
@@ -354,7 +292,6 @@ class EnvConfig:
     pushes: PushConfig = field(default_factory=PushConfig)
     curriculum: CurriculumConfig = field(default_factory=CurriculumConfig)
     assist: AssistConfig = field(default_factory=AssistConfig)
-    replay: ReplayConfig = field(default_factory=ReplayConfig)
     bridge: BridgeConfig = field(default_factory=BridgeConfig)
 
 
@@ -386,3 +323,4 @@ def _field(obj: Any, name: str, dotted: str) -> Any:
     if name not in names:
         raise KeyError(f"unknown config key '{dotted}': '{name}' is not one of {names}")
     return getattr(obj, name)
+

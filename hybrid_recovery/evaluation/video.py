@@ -17,7 +17,7 @@ def render_trial(controller, scenario: Scenario, path: str | Path, seconds: floa
     """
     import imageio.v2 as imageio
 
-    from hybrid_recovery.envs.render import BalanceRenderer, balance_overlay
+    from hybrid_recovery.sim.render import BalanceRenderer, balance_overlay
 
     every = max(1, round(1.0 / (fps * RECORD_DT)))
     renderer = BalanceRenderer(model_path)

@@ -8,7 +8,8 @@ evaluation, sim-to-sim, rendering and the QP controller all see the same robot:
   file without ``<option>`` would otherwise get MuJoCo's explicit Euler);
 * floor-only contacts: every robot collision geom ``contype = 1, conaffinity = 0``, the
   floor ``contype = 0, conaffinity = 1`` (no self-collision, as in the project's model);
-* the sites the controllers read, derived from the bodies where the file lacks them:
+* the sites the controllers read, derived from the bodies where the file lacks them (and
+  has the bodies):
   ``<side>_foot`` (sole centre, on the sole's bottom face), the sole corners
   ``<side>_foot_{fl,fr,rl,rr}`` (from the foot's collision geometry) and ``imu`` (the
   torso link's origin);
@@ -114,9 +115,11 @@ def _add_missing_sites(spec: mujoco.MjSpec) -> None:
     missing_soles = any(n not in names for n in sole_site_names())
     if not missing_soles and IMU_SITE in names:
         return
-    if missing_soles:
+    bodies = {body.name for body in spec.bodies}
+    feet = [(s, b) for s, b in zip(SIDES, constants.FOOT_BODIES, strict=True) if b in bodies]
+    if missing_soles and feet:
         model = spec.compile()
-        for side, body_name in zip(SIDES, constants.FOOT_BODIES, strict=True):
+        for side, body_name in feet:
             sites = sole_sites(model, model.body(body_name).id)
             body = spec.body(body_name)
             if f"{side}_foot" not in names:
@@ -124,5 +127,5 @@ def _add_missing_sites(spec: mujoco.MjSpec) -> None:
             for corner in CORNERS:
                 if f"{side}_foot_{corner}" not in names:
                     body.add_site(name=f"{side}_foot_{corner}", pos=sites[corner])
-    if IMU_SITE not in names:
+    if IMU_SITE not in names and constants.TORSO_BODY in bodies:
         spec.body(constants.TORSO_BODY).add_site(name=IMU_SITE, pos=[0.0, 0.0, 0.0])

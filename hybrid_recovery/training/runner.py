@@ -117,25 +117,8 @@ def _resumed_config(run_dir: Path, cfg: TrainConfig) -> TrainConfig:
     return saved
 
 
-def reference_amendments(reference: str | Path) -> list[dict]:
-    """The amendments of a reference run (its directory or its ``config.json``).
-
-    Raises:
-        FileNotFoundError: no such run or file.
-    """
-    path = Path(reference)
-    path = path / "config.json" if path.is_dir() else path
-    if not path.is_file():
-        raise FileNotFoundError(f"no reference run config at {path}")
-    return list(json.loads(path.read_text()).get("amendments", []))
-
-
-def _replayed(amendments: list[dict], reference: str) -> int:
-    return sum(1 for a in amendments if a.get("from") == reference)
-
-
 def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
-          amend: dict | None = None, follow: str | Path | None = None) -> RecoveryRunner:
+          amend: dict | None = None) -> RecoveryRunner:
     """Trains (or resumes) a run in ``run_dir`` up to ``cfg.iterations`` iterations.
 
     The run directory holds ``config.json`` (resolved train and env configs, git commit,
@@ -146,10 +129,6 @@ def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
             EnvConfig keys, see :func:`amend_train_config`). Each amendment is kept in
             ``config.json`` and the checkpoints' metadata with the iteration it starts at,
             so a run's history stays readable.
-        follow: a reference run (directory or ``config.json``) whose amendments are
-            replayed here at the iterations where the reference made them, so that an
-            ablation keeps the reference's recipe; kept in ``config.json``, so a resume
-            goes on following it.
 
     Raises:
         FileNotFoundError: resuming a directory without ``latest.pt``.
@@ -165,19 +144,10 @@ def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
     amendments: list[dict] = []
     saved_meta = json.loads((run_dir / "config.json").read_text()) \
         if resume and (run_dir / "config.json").is_file() else {}
-    follow = str(follow) if follow is not None else saved_meta.get("follow")
-    replay = reference_amendments(follow) if follow else []
     start = int(load_checkpoint(latest)["iter"]) + 1 if resume else 0
     if resume:
         cfg = _resumed_config(run_dir, cfg)
         amendments = saved_meta.get("amendments", [])
-        due = [a for a in replay[_replayed(amendments, str(follow)):] if a["iteration"] <= start]
-        for a in due:  # the reference's amendments this run has reached
-            cfg = amend_train_config(cfg, a["changes"])
-            amendments.append({"iteration": start, "changes": dict(a["changes"]),
-                               "git_commit": _git_commit(), "from": follow})
-            print(f"[hybrid-recovery] replaying {follow}'s amendment of iteration "
-                  f"{a['iteration']}: {a['changes']}", flush=True)
         if amend:
             cfg = amend_train_config(cfg, amend)
             amendments.append({"iteration": start, "changes": dict(amend),
@@ -189,8 +159,7 @@ def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
     env_cfg = make_env_config(cfg)
     env = RecoveryEnv(env_cfg)
     critic_dim = int(env.get_observations()["critic"].shape[1])
-    meta = {**policy_meta(cfg, env_cfg, critic_dim), "amendments": amendments,
-            **({"follow": follow} if follow else {})}
+    meta = {**policy_meta(cfg, env_cfg, critic_dim), "amendments": amendments}
     (run_dir / "config.json").write_text(json.dumps(meta, indent=2, default=str))
     runner = RecoveryRunner(env, runner_dict(cfg), str(run_dir), meta, cfg.keep_checkpoints)
     if resume:
@@ -200,10 +169,6 @@ def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
         print(f"[hybrid-recovery] resumed {run_dir} at iteration "
               f"{runner.current_learning_iteration}, curriculum stage "
               f"{env.curriculum.stage} level {env.curriculum.level:.2f}", flush=True)
-    pending = [a["iteration"] for a in replay[_replayed(amendments, str(follow)):]]
-    stop = min([cfg.iterations, *pending])
-    if stop > runner.current_learning_iteration:
-        runner.learn(stop - runner.current_learning_iteration)
-    if stop < cfg.iterations:  # at the reference's next amendment: resume with it
-        return train(run_dir, cfg, resume=True)
+    if cfg.iterations > runner.current_learning_iteration:
+        runner.learn(cfg.iterations - runner.current_learning_iteration)
     return runner
