@@ -23,7 +23,7 @@ def _scenarios(args: argparse.Namespace):
             check_pose(pose)
         kwargs["poses"] = tuple(args.poses)
     for name in ("forces", "directions", "heights"):
-        value = getattr(args, name)
+        value = getattr(args, name, None)
         if value is None:
             continue
         if args.protocol == "poses" or (args.protocol == "pushes" and name == "heights"):
@@ -38,7 +38,7 @@ def _run(args: argparse.Namespace, controller: str, out: Path) -> list[dict]:
     header = {"protocol": args.protocol, "trials": args.trials, "seed": args.seed,
               "poses": list(args.poses) if args.poses else None, "duration": args.duration}
     for name in ("forces", "directions", "heights"):  # recorded only when restricted
-        if getattr(args, name) is not None:
+        if getattr(args, name, None) is not None:
             header[name] = list(getattr(args, name))
     return run_protocol(_scenarios(args), controller, out / "results.jsonl",
                         model_path=args.model, contact=args.contact, workers=args.workers,

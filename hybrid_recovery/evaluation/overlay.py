@@ -60,7 +60,7 @@ def _by(rows: list[dict], key) -> dict:
 
 
 def _direction(r: dict) -> float:
-    return round(float(r["direction"]), 4)
+    return round(float(r.get("direction", 0.0)), 4)
 
 
 def _cell_name(force: float, direction: float) -> str:
@@ -157,7 +157,7 @@ def overlay_figures(results: dict[str, list[dict]], out: Path) -> list[tuple[str
         for c, rows in results.items():
             source = rows if key == "force" else [r for r in rows if r["force"] > 0]
             rows_at = _by(source, _direction if key == "direction" else
-                          (lambda r, k=key: float(r[k])))
+                          (lambda r, k=key: float(r.get(k, 0.0))))
             xs = list(rows_at)
             if not xs:
                 continue
