@@ -271,6 +271,7 @@ def test_probe_plays_one_episode_per_env_in_the_runs_own_env(tmp_path):
 
 
 def test_override_values_are_json_and_a_broken_list_is_refused():
+    from hybrid_recovery.cli.errors import UsageError
     from hybrid_recovery.cli.registry import parse_overrides
 
     assert parse_overrides(['bridge.pairs=[["squatting", "supine"]]', "rewards.w_cp=0",
@@ -279,7 +280,7 @@ def test_override_values_are_json_and_a_broken_list_is_refused():
         "curriculum.advance_on": "success", "assist.max_height": float("inf")}
     # unquoted names: once read as the string "[prone]", i.e. the poses "[", "p", "r", ...
     for bad in ("assist.poses=[prone]", "bridge.pairs=[[squatting, supine]]", "x={a: 1}"):
-        with pytest.raises(SystemExit, match="not valid JSON"):
+        with pytest.raises(UsageError, match="not valid JSON"):
             parse_overrides([bad])
-    with pytest.raises(SystemExit, match="key=value"):
+    with pytest.raises(UsageError, match="key=value"):
         parse_overrides(["rewards.w_cp"])

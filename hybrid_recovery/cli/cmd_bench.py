@@ -6,6 +6,7 @@ import argparse
 import json
 
 from hybrid_recovery.cli.registry import command, parse_overrides
+from hybrid_recovery.cli.validate import integer, non_negative, positive
 
 LAYER_BENCHES = ("dynamics", "env", "train")
 """Targets of :data:`hybrid_recovery.bench.BENCHES`: a table, then one JSON line."""
@@ -59,9 +60,10 @@ def _configure_bench(p: argparse.ArgumentParser) -> None:
              "train": "end-to-end training throughput and the PPO update's share"}
     for name in LAYER_BENCHES:
         t = targets.add_parser(name, help=helps[name], description=helps[name])
-        t.add_argument("-n", type=int, default=None,
+        t.add_argument("-n", type=integer(1), default=None,
                        help="problem size, e.g. number of states (default: the bench's own)")
-        t.add_argument("--repeat", type=int, default=None, help="timed runs, the best is kept")
+        t.add_argument("--repeat", type=integer(1), default=None,
+                       help="timed runs, the best is kept")
         t.add_argument("--seed", type=int, default=None)
         if name == "env":
             t.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
@@ -69,8 +71,9 @@ def _configure_bench(p: argparse.ArgumentParser) -> None:
     qp = targets.add_parser("qp", help="QP balance baseline: solve time per tick and the "
                             "push-recovery sweep")
     qp.add_argument("mode", nargs="?", default="all", choices=("timing", "sweep", "all"))
-    qp.add_argument("--timing-push", type=float, default=300.0, help="push of the timed run [N]")
-    qp.add_argument("--timing-duration", type=float, default=2.0, help="timed run [s]")
+    qp.add_argument("--timing-push", type=non_negative, default=300.0,
+                    help="push of the timed run [N]")
+    qp.add_argument("--timing-duration", type=positive, default=2.0, help="timed run [s]")
     qp.add_argument("--forces", default="0:500:50", help="start:stop:step [N]")
     qp.add_argument("--directions", default="+x,-x,+y,-y")
     qp.add_argument("--stepping", default="both", choices=("off", "on", "both"))
@@ -78,7 +81,7 @@ def _configure_bench(p: argparse.ArgumentParser) -> None:
                     help="JSON-lines file: rows are appended and reused (resumable sweep)")
     dep = targets.add_parser("deploy", help="ONNX inference latency and 50 Hz loop jitter "
                              "over loopback DDS")
-    dep.add_argument("--seconds", type=float, default=60.0, help="controller run time [s]")
+    dep.add_argument("--seconds", type=positive, default=60.0, help="controller run time [s]")
     dep.add_argument("--policy", default=None, help="exported policy directory (default: a "
                      "random stand-in of the same size)")
     dep.add_argument("--no-realtime", action="store_true",

@@ -146,8 +146,16 @@ class RecoveryEnv(VecEnv):
         return self._obs
 
     def step(self, actions: torch.Tensor) -> tuple[TensorDict, torch.Tensor, torch.Tensor, dict]:
+        """One control step of every env; finished envs are reset inside it.
+
+        An env whose action a_t (N, 27) holds NaN or inf is a fault of that env alone: it
+        is stepped with a_t = 0, then reset, counted in :attr:`nan_resets` and logged as
+        ``termination/nan``; no NaN reaches an observation or a reward.
+        """
+        raw = actions.detach().cpu().numpy()
+        bad_action = ~np.isfinite(raw).all(1)
         self.last_action = self.action
-        self.action = clip_action(actions.detach().cpu().numpy())
+        self.action = clip_action(np.where(bad_action[:, None], 0.0, raw))
         lo_hi = self.randomizer.jnt_range[:, 1:1 + self.num_actions]
         # within this episode's (scaled) joint ranges, applied delay_steps substeps late
         self.ctrl[:] = joint_targets(self.action, self.cfg.action_scale,
@@ -158,7 +166,7 @@ class RecoveryEnv(VecEnv):
             helped = self.assist.assisted(self._pose_names)[self.start_pose]  # 7 names, not N
             self.xfrc[:, self.torso, 2] += helped * self.assist.force_z(
                 self._state["mass"], self._state["gravity_b"], GRAVITY, self._state["height"])
-        failed = self._physics()
+        failed = self._physics(bad_action)
         self.episode_length_buf += 1
         self._read_state()
         s = self._state
@@ -195,10 +203,11 @@ class RecoveryEnv(VecEnv):
                 torch.from_numpy(done), extras)
 
     # ------------------------------------------------------------------ physics
-    def _physics(self) -> np.ndarray:
-        """Steps ``decimation`` substeps (the actuators apply the delayed targets);
-        returns the failed envs."""
-        failed = np.zeros(self.num_envs, dtype=bool)
+    def _physics(self, failed: np.ndarray) -> np.ndarray:
+        """Steps ``decimation`` substeps (the actuators apply the delayed targets); resets
+        and returns the failed envs: ``failed`` (N,) bool on entry (a non-finite action),
+        and those whose simulation failed or diverged."""
+        failed = failed.copy()
         try:
             self.sims.step(nstep=self.cfg.decimation, stage=mujoco.mjtStage.mjSTAGE_VEL)
         except mjbatch.SimulationError as err:
@@ -405,7 +414,7 @@ class RecoveryEnv(VecEnv):
     # happens, a failure when the episode ends. Counted only at the end, a window fills
     # with the failures first (stuck low after 2 s; a risen robot stays up until the
     # 20 s timeout), and after each level change, or resume, the bridges stepped back
-    # on windows of failures (training/README.md).
+    # on windows of failures (docs/experiments.md, §2).
     def _window_outcome(self) -> np.ndarray:
         """The curriculum's and the assistance's outcome so far (``advance_on``), (N,) bool."""
         return self.stood_up if self.cfg.curriculum.advance_on == "stood_up" else self.succeeded

@@ -45,8 +45,8 @@ class OnnxPolicyController:
     curriculum's final position-limit factor, and the robot's safety layer does the same
     (``SafetyConfig.q_ref_range_factor``); so does this controller, by the policy's
     ``target_range_factor``. Without the clamp, a policy that drives joints against the
-    training bound (full_se 3050: the knees in 91–96 % of standing steps) met a different
-    robot here.
+    training bound (a standing policy can hold its knees there in over 90 % of steps)
+    meets a different robot here.
 
     Args:
         path: ``policy.onnx`` or the directory holding it and ``policy.json``.
@@ -108,14 +108,14 @@ def make_controller(spec: str):
         kind, arg = "onnx", SHIPPED
     if kind == "hybrid" and not arg:
         arg = SHIPPED
-    if kind in ("onnx", "hybrid") and arg == SHIPPED:
+    if kind == "onnx" and not arg:
+        raise ValueError("onnx controller needs a path: onnx:PATH")
+    if kind in ("onnx", "hybrid") and arg:
         try:
             arg = str(resolve_policy(arg))
         except FileNotFoundError as err:
             raise ValueError(str(err)) from err
     if kind == "onnx":
-        if not arg:
-            raise ValueError("onnx controller needs a path: onnx:PATH")
         return OnnxPolicyController(arg)
     if kind in ("qp", "hybrid"):
         try:
