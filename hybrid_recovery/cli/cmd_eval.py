@@ -29,7 +29,7 @@ def _scenarios(args: argparse.Namespace):
         if value is None:
             continue
         if args.protocol == "poses" or (args.protocol == "pushes" and name == "heights"):
-            raise SystemExit(f"eval: --{name} does not apply to the {args.protocol} protocol")
+            raise UsageError(f"eval: --{name} does not apply to the {args.protocol} protocol")
         kwargs[name] = tuple(value)
     return PROTOCOLS[args.protocol](args.trials, **kwargs)
 
