@@ -1,4 +1,4 @@
-"""Initial states (SPEC §5–§6): settled pool states and perturbed, re-seated episode starts
+"""Initial states (paper §III-F–§III-G): settled pool states and perturbed, re-seated episode starts
 are physically valid (no penetration of the ground) with plausible CoM heights.
 
 CoM heights [m] of the project's H1-2 (h* = 0.92 m standing):

@@ -102,7 +102,7 @@ def test_each_env_keeps_its_own_window():
     np.testing.assert_array_equal(flags, [True, True, False])
 
 
-# ---------------------------------------------------------------- success (SPEC §7)
+# ---------------------------------------------------------------- success (paper §IV-A3)
 def gravity_at_tilt(deg: float) -> np.ndarray:
     t = np.deg2rad(deg)
     return np.array([[np.sin(t), 0.0, -np.cos(t)]])

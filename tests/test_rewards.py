@@ -1,4 +1,4 @@
-"""Reward terms of SPEC §4 on hand-made states with known answers (no simulator)."""
+"""Reward terms of the paper (§III-E) on hand-made states with known answers (no simulator)."""
 
 from __future__ import annotations
 
@@ -88,7 +88,7 @@ def test_stability_acts_only_inside_the_band():
 
 
 def test_rise_fall_and_stab_partition_the_height_axis():
-    """Outside the band r_stab = 0; inside it r_rise = r_fall = 0 (SPEC §4)."""
+    """Outside the band r_stab = 0; inside it r_rise = r_fall = 0 (paper §III-E1)."""
     heights = np.linspace(0.1, 1.3, 241)
     for vel in (-0.7, 0.7):
         s = state(len(heights), height=heights, height_vel=vel)

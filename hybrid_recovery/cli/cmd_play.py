@@ -3,19 +3,15 @@
 from __future__ import annotations
 
 import argparse
-import os
 
 from hybrid_recovery.cli.registry import command
 from hybrid_recovery.cli.validate import check_model, finite, non_negative, positive
-
-# Offscreen rendering: MuJoCo picks its OpenGL backend when it is first imported, which
-# in the CLI happens after the subcommand modules are loaded; EGL needs no display.
-os.environ.setdefault("MUJOCO_GL", "egl")
 
 
 def _play(args: argparse.Namespace) -> int:
     from hybrid_recovery.evaluation.play import onnx_policy, play
     from hybrid_recovery.policy import resolve_policy
+    from hybrid_recovery.sim.render import renderer_backend
 
     check_model(args.model)
     policy = None if args.policy in (None, "zero") else onnx_policy(resolve_policy(args.policy))
@@ -24,6 +20,7 @@ def _play(args: argparse.Namespace) -> int:
                   push_duration=args.push_duration, fps=args.fps, seed=args.seed,
                   randomize=args.randomize, model_path=args.model)
     print(f"wrote {args.out} ({frames} frames at {args.fps} fps)")
+    print(f"renderer: {renderer_backend()}")
     return 0
 
 

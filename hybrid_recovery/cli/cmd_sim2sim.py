@@ -3,13 +3,10 @@
 from __future__ import annotations
 
 import argparse
-import os
 from pathlib import Path
 
 from hybrid_recovery.cli.registry import command
 from hybrid_recovery.cli.validate import check_model, finite, integer, non_negative, positive
-
-os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco (video)
 
 
 def _sim2sim(args: argparse.Namespace) -> int:
@@ -36,6 +33,8 @@ def _sim2sim(args: argparse.Namespace) -> int:
           f"fault: {summary['fault']}")
     print(f"wrote {out / 'trace.csv'}, {out / 'trace.png'}, {out / 'summary.json'}"
           + (f", {summary['video']}" if "video" in summary else ""))
+    if "renderer" in summary:
+        print(f"renderer: {summary['renderer']}")
     return 0
 
 
@@ -46,8 +45,8 @@ def _configure(p: argparse.ArgumentParser) -> None:
                    help="exported policy directory, 'shipped' (the policy shipped in "
                         "models/policies/h1_2_recovery) or 'zero' for a zero-action stand-in")
     p.add_argument("--model", default=None,
-                   help="H1-2 MJCF (default: the project's model), e.g. "
-                        "../shared/reference/unitree_h1_2/h1_2_handless.xml")
+                   help="H1-2 MJCF (default: the project's model), e.g. the manufacturer's "
+                        "h1_2_handless.xml from unitree_ros")
     p.add_argument("--pose", default="standing", choices=POSES)
     p.add_argument("--seconds", type=positive, default=10.0)
     p.add_argument("--push", type=non_negative, default=0.0, help="torso push force [N]")

@@ -1,7 +1,7 @@
 """The ONNX policy at 50 Hz: the training observation in, joint targets out.
 
 The observation is built by :func:`hybrid_recovery.observation.actor_observation`, the
-builder the environment uses (STYLE §4): torso IMU angular velocity and orientation as
+one builder the environment uses too: torso IMU angular velocity and orientation as
 ``LowState_.imu_state`` gives them, q − q*, q̇ and the last action. The network runs in
 :class:`hybrid_recovery.policy.OnnxPolicy`; as in
 :class:`~hybrid_recovery.envs.RecoveryEnv`, the action is clipped to ±``ACTION_CLIP``, the

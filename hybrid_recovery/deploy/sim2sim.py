@@ -9,8 +9,8 @@ actuators with constants.KP/KD from the command). Any H1-2 MJCF loads: the proje
 delay can be added. Writes ``trace.csv``, ``trace.png``, ``summary.json`` and, with a
 renderer, ``video.mp4``.
 
-Video needs an OpenGL backend: set ``MUJOCO_GL=egl`` (or ``osmesa``) before mujoco is
-imported (the ``sim2sim`` command does).
+The video is drawn with OpenGL where a context can be made, else in software
+(:class:`hybrid_recovery.sim.render.BalanceRenderer`); ``summary.json`` names which.
 """
 
 from __future__ import annotations
@@ -124,6 +124,8 @@ def run_sim2sim(policy_dir: str | Path, out_dir: str | Path,
     trace.plot(out / "trace.png", title)
     if video is not None:
         summary["video"] = video.write(out / "video.mp4")
+        if video.renderer is not None:
+            summary["renderer"] = video.renderer.backend_name
     (out / "summary.json").write_text(json.dumps(summary, indent=2))
     return summary
 
@@ -156,7 +158,7 @@ class _Video:
         try:
             self.renderer: BalanceRenderer | None = BalanceRenderer(
                 cfg.model_path, cfg.width, cfg.height)
-        except RuntimeError as err:  # no OpenGL backend: keep the run, say why
+        except (RuntimeError, ValueError) as err:  # keep the run, say why
             self.renderer, self.error = None, f"no video: {err}"
 
     def maybe_capture(self) -> None:

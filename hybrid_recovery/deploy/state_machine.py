@@ -1,6 +1,6 @@
 """The deployment safety state machine: pure logic, no I/O, no clock of its own.
 
-Phases, in order (STYLE §12)::
+Phases, in order::
 
     WAIT_STATE ─first valid state─▶ ZERO_TORQUE ─zero_torque_s─▶ INTERPOLATE ─interpolate_s─▶
     HOLD ─hold_s (+ start)─▶ POLICY            any phase ─fault or stop─▶ DAMPING (final)

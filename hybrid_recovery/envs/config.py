@@ -1,4 +1,4 @@
-"""Typed configuration of the recovery environment (SPEC §2–§6), units in the docstrings."""
+"""Typed configuration of the recovery environment (paper §III-C–§III-G), with units."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from hybrid_recovery.robot.constants import UPRIGHT_COM_HEIGHT
 
 @dataclass
 class RewardConfig:
-    """Weights w, shaping coefficients α, bandwidths σ of SPEC §4 (rates per second).
+    """Weights w, shaping coefficients α, bandwidths σ of the paper (§III-E; rates per second).
 
     Every term value is multiplied by its weight and by the control period Δt, so a
     weight is a reward per second of the condition holding. A weight of 0 disables a
@@ -93,7 +93,7 @@ class RewardConfig:
 
 @dataclass
 class NoiseConfig:
-    """Additive uniform actor-observation noise half-widths (SPEC §2)."""
+    """Additive uniform actor-observation noise half-widths (paper §III-G)."""
 
     ang_vel: float = 0.5
     """[rad/s]."""
@@ -106,7 +106,7 @@ class NoiseConfig:
 
 @dataclass
 class DomainRandConfig:
-    """Per-episode domain randomisation ranges (SPEC §6); ``scale`` ∈ [0, 1] widens them
+    """Per-episode domain randomisation ranges (paper §III-G); ``scale`` ∈ [0, 1] widens them
     from nominal (0) to the full range (1) — the curriculum drives it."""
 
     kp_scale: tuple[float, float] = (0.75, 1.25)
@@ -131,7 +131,7 @@ class DomainRandConfig:
 
 @dataclass
 class PushConfig:
-    """Torso pushes (SPEC §6): horizontal force at the torso CoM."""
+    """Torso pushes (paper §III-G): horizontal force at the torso CoM."""
 
     force: tuple[float, float] = (50.0, 300.0)
     """|F| [N]."""
@@ -149,7 +149,7 @@ class PushConfig:
 
 @dataclass
 class CurriculumConfig:
-    """Three stages (SPEC §5), advanced by the success rate of finished episodes.
+    """Three stages (paper §III-F), advanced by the success rate of finished episodes.
 
     Stage 1 (exploration): torque limits × torque_scale_explore, no pushes, no domain
     randomisation, start poses ``stage1_poses``. Stage 2: ``difficulty`` rises from 0 to 1
@@ -169,16 +169,16 @@ class CurriculumConfig:
     ``"stood_up"`` = CoM above 0.85 m with the torso within 72° of vertical for 1 s;
     ``"success"`` = the paper's criterion, which adds |ḣ_c| < 0.1 m/s throughout. Training
     rollouts carry the policy's exploration noise, which alone breaks the stillness
-    clause: in a run whose mean policy stood up from 44 % of squats by the full criterion
+    clause: with a mean policy that stood up from 44 % of squats by the full criterion
     (and ~100 % by "stood_up"), not one training episode met it in 4.5 M steps, so the
     curriculum could never advance. Both rates are logged."""
     advance_poses: tuple[str, ...] | None = None
     """Start poses whose episodes count for advancing (and for the assistance); None: all.
     Beyond the paper, for small budgets: with ``stage1_poses`` here, hard poses train
-    alongside from stage 2 on without gating the torque annealing. In the first run, 300
-    iterations (7 M steps) at stage 2 level 1.0 stood up from standing 87 %, squatting
-    70 %, kneeling ~25 % and sitting, supine, prone 0 %, so the all-pose rate could not
-    reach ``advance_success`` and stage 3 (1× torque) never began."""
+    alongside from stage 2 on without gating the torque annealing. Measured: after 300
+    iterations (7 M steps) at stage 2 level 1.0, episodes stood up from standing 87 %,
+    squatting 70 %, kneeling ~25 % and sitting, supine, prone 0 %, so the all-pose rate
+    could not reach ``advance_success`` and stage 3 (1× torque) never began."""
     window: int = 512
     step: float = 0.1
     stage1_poses: tuple[str, ...] = ("standing", "squatting", "kneeling")
@@ -192,8 +192,8 @@ class AssistConfig:
     ``max_tilt`` lets early policies reach, and learn to hold, the upright states that
     random exploration rarely finds. Each time the success rate of the last curriculum
     window of episodes reaches ``CurriculumConfig.advance_success`` the fraction is
-    multiplied by ``decay``; below ``floor`` it is switched off. The curriculum of
-    SPEC §5 only starts counting once the assistance is off.
+    multiplied by ``decay``; below ``floor`` it is switched off. The paper's curriculum
+    (§III-F) only starts counting once the assistance is off.
     """
 
     fraction: float = 0.0
@@ -224,11 +224,11 @@ class BridgeConfig:
     like every pose — at that bridge's level k / ``levels``, from 0 (the source pose) up;
     each time the stand-up rate of the last ``window`` such episodes reaches ``advance``
     the level rises by one, and at ``levels`` the episodes start from the target itself.
-    Why: from ``half_kneeling`` 29–37 % of unassisted training episodes of the full run
-    stood up at 1× torque, from ``kneeling`` 3–4 % with a pull of 0.72 m g, and none in
-    a deterministic probe without it (training/README.md); the blends are the states in
-    between, where the front foot comes forward. Sitting is 0.3 % with the pull, squatting
-    70–75 % unassisted: in between, the feet come under the body.
+    Why: at 1× torque a policy that stands up from ``half_kneeling`` in about a third of
+    its episodes may never rise from ``kneeling`` (the knee's range keeps the feet from
+    getting under the body); the blends are the states in between, where the front foot
+    comes forward. Likewise between squatting (risen from) and sitting (not), where the
+    feet come under the body. Measured effect: ``docs/experiments.md``.
     """
 
     levels: int = 0
@@ -239,15 +239,14 @@ class BridgeConfig:
     """Stand-up rate of a target's episodes over ``window`` that earns its bridge a level."""
     retreat: float = 0.0
     """Stand-up rate over ``window`` below which the bridge steps back a level (0: never),
-    so that its starts stay where rises are still found. Why: at advance 0.3, the full
-    run's fork stalled 200 iterations at kneeling 3/8 (3–6 % stood up) and sitting 4/8
-    (0 %), where 2/8 and 3/8 had passed 0.3."""
+    so that its starts stay where rises are still found. Why: without it, bridges have
+    stalled for 200 iterations at a level where 0–6 % stood up."""
     window: int = 256
 
 
 @dataclass
 class EnvConfig:
-    """The recovery environment (SPEC §2–§6)."""
+    """The recovery environment (paper §III-C–§III-G)."""
 
     num_envs: int = 1024
     num_threads: int = 0
@@ -276,14 +275,14 @@ class EnvConfig:
     torso–ground contact under high contact force"). Measured on this model (32 envs):
     resting on the torso 0.2–0.35 kN; passive falls from standing peak at 0.75 kN
     (median); random actions from kneeling at 10× torque slam at 7.6 kN (median, 90th
-    percentile 11.8 kN). At 2 kN and at 5 kN every episode of the first two runs ended
-    by torso contact within 1–2 s (rate 1.0, no stand-up learnt); 10 kN ends the
-    violent slams only."""
+    percentile 11.8 kN). At 2 kN and at 5 kN every training episode ended by torso
+    contact within 1–2 s (rate 1.0, no stand-up learnt); 10 kN ends the violent slams
+    only."""
     stuck_time: float = 2.0
     """Stuck-low: no CoM rise of stuck_rise above the lowest point of the last stuck_time
-    seconds, while not upright, ends the episode [s]. (A first version reset its timer on
-    any 2 cm rise: in the third run 48 % of episodes timed out lying at h_c ≈ 0.34 m by
-    wiggling.)"""
+    seconds, while not upright, ends the episode [s]. (Measured against the rule read
+    literally, a timer reset by any 2 cm rise: 48 % of episodes then timed out lying at
+    h_c ≈ 0.34 m by wiggling.)"""
     stuck_rise: float = 0.02
     """[m]."""
     upright_height: float = UPRIGHT_COM_HEIGHT
@@ -298,7 +297,7 @@ class EnvConfig:
 
 
 def default_config() -> EnvConfig:
-    """The paper's environment (SPEC §2–§6) with this project's documented choices."""
+    """The paper's environment (§III-C–§III-G) with this project's documented choices."""
     return EnvConfig()
 
 

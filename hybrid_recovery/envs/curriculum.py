@@ -1,4 +1,4 @@
-"""The three-stage curriculum of SPEC §5, as a small state machine with saved state."""
+"""The three-stage curriculum of the paper (§III-F), as a small state machine with saved state."""
 
 from __future__ import annotations
 

@@ -52,8 +52,8 @@ class RecoveryGymEnv(gym.Env):
     Args:
         cfg: environment configuration (``num_envs`` and ``num_threads`` are set to 1);
             None for :func:`hybrid_recovery.envs.default_config`.
-        render_mode: None or ``"rgb_array"`` (needs an OpenGL context, see
-            :mod:`hybrid_recovery.sim.render`).
+        render_mode: None or ``"rgb_array"`` (OpenGL where a context can be made, else
+            software; see :mod:`hybrid_recovery.sim.render`).
 
     Raises:
         ValueError: an unknown render mode.

@@ -414,7 +414,7 @@ class RecoveryEnv(VecEnv):
     # happens, a failure when the episode ends. Counted only at the end, a window fills
     # with the failures first (stuck low after 2 s; a risen robot stays up until the
     # 20 s timeout), and after each level change, or resume, the bridges stepped back
-    # on windows of failures (training/README.md).
+    # on windows of failures (docs/experiments.md, §2).
     def _window_outcome(self) -> np.ndarray:
         """The curriculum's and the assistance's outcome so far (``advance_on``), (N,) bool."""
         return self.stood_up if self.cfg.curriculum.advance_on == "stood_up" else self.succeeded

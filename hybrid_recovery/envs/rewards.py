@@ -1,4 +1,4 @@
-"""Reward terms of SPEC §4: R = R_I + R_II + R_III, each a pure batched function.
+"""Reward terms of the paper (§III-E): R = R_I + R_II + R_III, each a pure batched function.
 
 Every term returns shape (N,). :data:`REWARD_TERMS` lists them with their weights;
 :func:`compute_rewards` applies ``value × weight × Δt`` in one place and returns the

@@ -1,4 +1,4 @@
-"""Terminations (SPEC §5) and the paper's success criterion (SPEC §7)."""
+"""Terminations (paper §III-F, stuck low §IV-B) and the paper's success criterion (§IV-A3)."""
 
 from __future__ import annotations
 

@@ -45,8 +45,8 @@ class OnnxPolicyController:
     curriculum's final position-limit factor, and the robot's safety layer does the same
     (``SafetyConfig.q_ref_range_factor``); so does this controller, by the policy's
     ``target_range_factor``. Without the clamp, a policy that drives joints against the
-    training bound (full_se 3050: the knees in 91–96 % of standing steps) met a different
-    robot here.
+    training bound (a standing policy can hold its knees there in over 90 % of steps)
+    meets a different robot here.
 
     Args:
         path: ``policy.onnx`` or the directory holding it and ``policy.json``.

@@ -1,4 +1,4 @@
-"""Evaluation scenarios and the protocols that enumerate them (SPEC §7)."""
+"""Evaluation scenarios and the protocols that enumerate them (paper §IV-A)."""
 
 from __future__ import annotations
 

@@ -13,7 +13,8 @@ def render_trial(controller, scenario: Scenario, path: str | Path, seconds: floa
                  fps: int = 25, model_path: str | None = None) -> Path:
     """Runs ``scenario`` with ``controller`` and writes its video to ``path``.
 
-    Needs an OpenGL context (``MUJOCO_GL=egl`` or ``osmesa`` set before mujoco is imported).
+    Drawn with OpenGL where a context can be made, else in software
+    (:func:`hybrid_recovery.sim.render.renderer_backend` says which).
     """
     import imageio.v2 as imageio
 

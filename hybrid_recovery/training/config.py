@@ -1,4 +1,4 @@
-"""Typed training configuration (SPEC §1) and its rsl-rl-lib 5 runner dictionary."""
+"""Typed training configuration (paper §III-B) and its rsl-rl-lib 5 runner dictionary."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from hybrid_recovery.envs.removed import drop_removed
 
 @dataclass
 class PPOConfig:
-    """PPO hyperparameters: the paper's (SPEC §1) where it gives them."""
+    """PPO hyperparameters: the paper's (paper §III-B) where it gives them."""
 
     clip_param: float = 0.2
     gamma: float = 0.99

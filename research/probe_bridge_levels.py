@@ -5,7 +5,7 @@ envs start from the target's pose at that level, with the run's training setting
 otherwise and the assistance off; the share that stands up (CoM above 0.85 m, torso
 within 72°, for 1 s) says how hard each blend is for each actor.
 
-    python training/probe_bridge_levels.py runs/full_se runs/full_bridge --levels 8 --envs 64
+    python research/probe_bridge_levels.py runs/run_a runs/run_b --levels 8 --envs 64
 
 ``--torque-scale S`` multiplies the hardware effort limits by S (1 ≤ S ≤ the curriculum's
 ``torque_scale_explore``) through the torque curriculum's level, the actor unchanged (the

@@ -7,7 +7,7 @@ CoM height, the episode's length and how it ended; medians over stood-up and fai
 episodes. Forward is the robot's heading at the start (its pelvis x axis, horizontal),
 which the starts draw at random.
 
-    python training/probe_rise_motion.py runs/full_bridge --levels 8 --at 3 4 8 --envs 64
+    python research/probe_rise_motion.py runs/my_run --levels 8 --at 3 4 8 --envs 64
 """
 
 from __future__ import annotations
