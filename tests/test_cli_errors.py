@@ -59,6 +59,13 @@ def test_contact_and_model_are_checked_first(tmp_path, capsys):
     assert not out.exists()
 
 
+def test_report_names_a_missing_results_file(tmp_path, capsys):
+    missing = tmp_path / "results.jsonl"
+    err = _error(capsys, ["report", str(missing), "--out", str(tmp_path / "report")])
+    assert err == f"error: results file not found: {missing}\n"
+    assert not (tmp_path / "report").exists()
+
+
 @pytest.mark.parametrize(("option", "value", "expected"), [
     ("--trials", "-5", "an integer >= 1"),
     ("--trials", "2.5", "an integer >= 1"),
