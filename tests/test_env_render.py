@@ -227,3 +227,43 @@ def test_play_with_opengl_disabled_draws_in_software_and_prints_no_gl_errors(tmp
 
     with imageio.get_reader(str(out)) as reader:
         assert len([f for f in reader]) == 10
+
+
+def test_software_renderer_projects_a_sphere_where_a_pinhole_camera_sees_it():
+    """No OpenGL needed: a red sphere drawn by the software renderer lands where an
+    independent pinhole projection of MuJoCo's free camera (look-at, distance, azimuth,
+    elevation, vertical field of view) puts it, with the radius that projection gives."""
+    from hybrid_recovery.sim.software_renderer import SoftwareRenderer
+
+    center, radius = np.array([0.3, -0.2, 0.6]), 0.08
+    model = mujoco.MjModel.from_xml_string(
+        f'<mujoco><worldbody><geom type="sphere" size="{radius}" '
+        f'pos="{center[0]} {center[1]} {center[2]}" rgba="1 0 0 1"/></worldbody></mujoco>')
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    height, width = 240, 320
+    renderer = SoftwareRenderer(model, height, width)
+    camera = mujoco.MjvCamera()
+    camera.type = mujoco.mjtCamera.mjCAMERA_FREE
+    camera.lookat[:], camera.distance = [0.0, 0.0, 0.5], 2.5
+    camera.azimuth, camera.elevation = 120.0, -20.0
+    renderer.update_scene(data, camera)
+    frame = renderer.render().astype(int)
+    renderer.close()
+
+    az, el = np.radians(camera.azimuth), np.radians(camera.elevation)
+    forward = np.array([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)])
+    position = np.array(camera.lookat) - camera.distance * forward
+    right = np.cross(forward, [0.0, 0.0, 1.0])
+    right /= np.linalg.norm(right)
+    up = np.cross(right, forward)
+    d = center - position
+    z = d @ forward
+    focal = 0.5 * height / np.tan(np.radians(model.vis.global_.fovy) / 2)
+    expected = np.array([0.5 * width + focal * (d @ right) / z,
+                         0.5 * height - focal * (d @ up) / z])
+
+    red = (frame[..., 0] > 150) & (frame[..., 1] < 80) & (frame[..., 2] < 80)
+    rows, cols = np.nonzero(red)
+    np.testing.assert_allclose([cols.mean(), rows.mean()], expected, atol=1.5)
+    assert np.sqrt(red.sum() / np.pi) == pytest.approx(focal * radius / z, rel=0.1)

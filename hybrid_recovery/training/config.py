@@ -27,6 +27,10 @@ class PPOConfig:
     use_clipped_value_loss: bool = True
     symmetry: bool = False
     """Left/right mirror data augmentation (rsl-rl's symmetry extension); off as in the paper."""
+    mixed_precision: bool = False
+    """bf16 autocast on the CPU for the update's forward passes and losses (rsl-rl's
+    ``use_mixed_precision``). Weights, gradients and the Adam state stay float32; the
+    rollout's inference stays float32. Beyond the paper."""
 
 
 @dataclass
@@ -53,7 +57,9 @@ class TrainConfig:
     """Numbered checkpoints kept besides ``latest.pt``."""
     seed: int = 0
     num_threads: int = 2
-    """Physics threads and torch threads (they never run at the same time)."""
+    """Physics threads (MuJoCo's Batch), and torch threads unless ``torch_threads`` is set."""
+    torch_threads: int | None = None
+    """Torch intra-op threads for inference and the PPO update; None: ``num_threads``."""
     ppo: PPOConfig = field(default_factory=PPOConfig)
     env_overrides: dict[str, Any] = field(default_factory=dict)
     """Dotted EnvConfig overrides applied after the variant's."""
@@ -122,6 +128,7 @@ def runner_dict(cfg: TrainConfig) -> dict[str, Any]:
     """The rsl-rl-lib 5 ``OnPolicyRunner`` configuration for ``cfg``."""
     ppo = asdict(cfg.ppo)
     symmetry = ppo.pop("symmetry")
+    ppo["use_mixed_precision"] = ppo.pop("mixed_precision")
     algorithm: dict[str, Any] = {"class_name": "PPO", **ppo}
     if symmetry:
         algorithm["symmetry_cfg"] = {
