@@ -91,6 +91,16 @@ def test_debug_adds_the_traceback(capsys):
     assert capsys.readouterr().err.startswith("Traceback")
 
 
+def test_an_unexpected_exception_is_named_as_a_bug(capsys):
+    def buggy() -> int:
+        return None + 1  # type: ignore[operator]
+
+    assert report_errors(buggy, debug=False) == 2
+    assert capsys.readouterr().err == (
+        "error: TypeError: unsupported operand type(s) for +: 'NoneType' and 'int' (a bug: "
+        "run with --debug for the traceback and report it)\n")
+
+
 def test_interrupt_is_one_line_and_exit_130(capsys):
     def interrupted() -> int:
         raise KeyboardInterrupt
