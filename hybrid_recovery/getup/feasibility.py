@@ -157,6 +157,10 @@ def _solve(h, g, a, b, c, lo, hi) -> np.ndarray | None:
     qp.settings.eps_abs = 1e-10
     qp.settings.eps_rel = 0.0
     qp.settings.max_iter = 10_000
+    # both problems are feasible by construction (slack, free ρ): no early infeasibility
+    # verdict on an ill-conditioned contact set
+    qp.settings.eps_primal_inf = 1e-14
+    qp.settings.eps_dual_inf = 1e-14
     qp.settings.verbose = False
     qp.init(h, g, a, b, c, lo, hi)
     qp.solve()
