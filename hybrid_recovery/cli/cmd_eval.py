@@ -29,9 +29,11 @@ def _run(args: argparse.Namespace, controller: str, out: Path) -> list[dict]:
 
     header = {"protocol": args.protocol, "trials": args.trials, "seed": args.seed,
               "poses": list(args.poses) if args.poses else None, "duration": args.duration}
+    if args.stop_on_success:
+        header["stop_on_success"] = True
     return run_protocol(_scenarios(args), controller, out / "results.jsonl",
                         model_path=args.model, contact=args.contact, workers=args.workers,
-                        header=header)
+                        header=header, stop_on_success=args.stop_on_success)
 
 
 def _eval(args: argparse.Namespace) -> int:
@@ -68,11 +70,15 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--model", default=None, help="another robot MJCF (sim-to-sim)")
     p.add_argument("--contact", default="default", help="contact preset (sim-to-sim)")
     p.add_argument("--workers", type=int, default=2)
+    p.add_argument("--stop-on-success", action="store_true",
+                   help="end each trial once it has succeeded (same success and recovery "
+                        "time, shorter trials; end-of-trial figures then describe that time)")
 
 
 def _configure_eval(p: argparse.ArgumentParser) -> None:
     p.add_argument("--controller", default="learned",
-                   help="learned (the shipped policy) | zero | onnx:PATH | qp | hybrid[:PATH]")
+                   help="learned (the shipped policy) | zero | onnx:PATH | qp | model | "
+                        "hybrid[:PATH]")
     p.add_argument("--out", default="results/eval")
     _common(p)
 

@@ -18,12 +18,15 @@ from hybrid_recovery.policy.onnx_policy import DESCRIPTION
 _WORKER: dict = {}
 
 
-def _init_worker(controller: str, model_path: str | None, contact: str) -> None:
-    _WORKER.update(controller=make_controller(controller), model=model_path, contact=contact)
+def _init_worker(controller: str, model_path: str | None, contact: str,
+                 stop_on_success: bool = False) -> None:
+    _WORKER.update(controller=make_controller(controller), model=model_path, contact=contact,
+                   stop=stop_on_success)
 
 
 def _work(scenario: Scenario) -> dict:
-    return run_trial(_WORKER["controller"], scenario, _WORKER["model"], _WORKER["contact"])
+    return run_trial(_WORKER["controller"], scenario, _WORKER["model"], _WORKER["contact"],
+                     stop_on_success=_WORKER["stop"])
 
 
 def completed_keys(results: Path) -> set[str]:
@@ -101,8 +104,12 @@ def header_provenance(header: dict) -> dict | None:
 
 def run_protocol(scenarios: list[Scenario], controller: str, results: str | Path,
                  model_path: str | None = None, contact: str = "default", workers: int = 2,
-                 header: dict | None = None, progress: bool = True) -> list[dict]:
+                 header: dict | None = None, progress: bool = True,
+                 stop_on_success: bool = False) -> list[dict]:
     """Runs every scenario not yet in ``results`` and appends one JSON line per trial.
+
+    With ``stop_on_success`` each trial ends once it has succeeded (see
+    :func:`run_trial`).
 
     A killed run resumes where it stopped: finished trials are skipped by key. The first
     line of a new file is a header with the controller (and its policy's provenance), the
@@ -134,12 +141,13 @@ def run_protocol(scenarios: list[Scenario], controller: str, results: str | Path
         if results.read_bytes()[-1:] not in (b"", b"\n"):
             out.write("\n")  # end a line torn by a killed run
         if workers <= 1:
-            _init_worker(controller, model_path, contact)
+            _init_worker(controller, model_path, contact, stop_on_success)
             rows: Iterator[dict] = map(_work, todo)
             pool = None
         else:
             pool = mp.get_context("fork").Pool(workers, _init_worker,
-                                               (controller, model_path, contact))
+                                               (controller, model_path, contact,
+                                                stop_on_success))
             rows = pool.imap_unordered(_work, todo)
         try:
             for row in rows:
