@@ -80,6 +80,21 @@ class GroundHybridController:
             path / "policy.onnx" if path.is_dir() else path)
         self.moves = GroundMoves(self.config.moves)
 
+    @property
+    def policy(self):
+        """The exported policy (its ``description`` holds the training provenance)."""
+        return self.supervisor.policy.policy
+
+    @property
+    def phase(self) -> str:
+        """What acts now: ``"settle"``, ``"<move>/<keyframe>"``, ``"policy"`` or ``"qp"``."""
+        if self.mode == MOVES:
+            move = self.moves.move
+            if move is None:
+                return "settle"
+            return f"{move.name}/{move.phases[self.moves.phase].keyframe}"
+        return self.supervisor.mode
+
     def reset(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         self.supervisor.reset(model, data)
         self.handovers: list[tuple[float, str]] = []

@@ -59,9 +59,24 @@ KNEE_CHEST = _symmetric((-0.39, -1.92, 0.28, 1.67, -0.1, -0.24), 0.0,
 """Knee-chest: knees under the hips, toes tucked, chest and head down, hands by the
 head: the hand-over state the shipped policy rises from."""
 
+HANDS_KNEES = _symmetric((-0.28, -1.48, 0.19, 1.97, 0.15, -0.24), 0.0,
+                         (-1.30, 0.23, 0.01, 1.37, 0.0, -0.04, 0.01))
+"""On hands and knees: thighs vertical, arms straight under the shoulders."""
+
+KNEEL_UPRIGHT = _symmetric((0.04, -0.18, -0.02, 1.98, 0.12, 0.01), 0.0,
+                           (0.17, 0.20, 0.0, 0.59, 0, 0, 0))
+"""Kneeling upright on both knees, torso vertical, knees within the 0.9× range."""
+
+SIDE_SIT = np.array([-0.39, -2.83, 0.69, 1.60, 0.0, -0.13, -0.04, -1.71, -0.10, 1.63, 0.01,
+                     0.24, 1.20, -1.08, -0.01, 0.0, 1.02, 0.0, -0.05, 0.01, -0.99, -0.14,
+                     0.04, 1.12, 0.0, -0.04, 0.02])
+"""Side-sit: the pelvis rolled onto its left hip, the waist twisted 1.2 rad towards the
+floor, both hands down in front (asymmetric)."""
+
 KEYFRAMES: dict[str, np.ndarray] = {
     "supine_rest": SUPINE_REST, "tuck": TUCK, "roll_twist": ROLL_TWIST,
     "roll_unwind": ROLL_UNWIND, "prone_hands": PRONE_HANDS, "knee_chest": KNEE_CHEST,
+    "hands_knees": HANDS_KNEES, "kneel_upright": KNEEL_UPRIGHT, "side_sit": SIDE_SIT,
 }
 """Every keyframe by name."""
 
