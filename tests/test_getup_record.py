@@ -46,7 +46,8 @@ def test_handover_start_settles_in_knee_chest():
 
 def test_bad_input_messages(tmp_path):
     cases = [
-        (lambda: record_rises("flying", 1, tmp_path / "x.npz"), f"unknown pose 'flying': choose one of {list(POSES)}"),
+        (lambda: record_rises("flying", 1, tmp_path / "x.npz"),
+         f"unknown pose 'flying': choose one of {list(POSES)}"),
         (lambda: record_rises("prone", 0, tmp_path / "x.npz"), "episodes must be >= 1, got 0"),
         (lambda: handover_map(trials=0), "trials must be >= 1, got 0"),
         (lambda: handover_map(("hovering",)),
