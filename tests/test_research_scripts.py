@@ -1,0 +1,143 @@
+"""The bridge probes of ``research/`` on a one-iteration run, its actor replaced by one that
+holds the joints where they are: no rise, every episode stuck low after ``stuck_time``, and
+the motion figures equal to those computed from what that actor saw."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+from types import ModuleType
+
+import numpy as np
+import pytest
+import torch
+
+from hybrid_recovery.dynamics import GRAVITY
+from hybrid_recovery.robot.constants import DEFAULT_JOINT_POS
+from hybrid_recovery.training import TrainConfig, train
+
+SCRIPTS = Path(__file__).resolve().parents[1] / "research"
+EPISODES = 4
+
+
+def _script(name: str) -> ModuleType:
+    if str(SCRIPTS) not in sys.path:  # as when run: the scripts import their neighbours
+        sys.path.insert(0, str(SCRIPTS))
+    spec = importlib.util.spec_from_file_location(name, SCRIPTS / f"{name}.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory) -> Path:
+    run = tmp_path_factory.mktemp("run")
+    train(run, TrainConfig(num_envs=8, iterations=1, save_interval=1, num_threads=1))
+    return run
+
+
+class Holder:
+    """An actor whose targets are the current joint angles (the robot cannot rise), which
+    records what it sees before each step: the CoM (N, 3) and the shins' s_z (N, 2); and
+    the start heading, from the pelvis's yaw (N, 2)."""
+
+    def __init__(self, env) -> None:
+        self.env, self.com, self.shin_up = env, [], []
+        w, x, y, z = env.qpos[:, 3:7].T
+        yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+        self.heading = np.stack([np.cos(yaw), np.sin(yaw)], 1)
+
+    def __call__(self, obs) -> torch.Tensor:
+        s = self.env._state
+        self.com.append(s["com"].copy())
+        self.shin_up.append(s["shin_up"].copy())
+        action = (s["q"] - DEFAULT_JOINT_POS) / self.env.cfg.action_scale
+        return torch.from_numpy(action.astype(np.float32))
+
+
+def _holding(module: ModuleType, monkeypatch) -> list[Holder]:
+    """Replaces the actor of ``module``'s ``bridge_env`` by a :class:`Holder` made at the
+    first start; returns the list that will hold it."""
+    bridge_env, holders = module.bridge_env, []
+
+    def holding_env(*args):
+        env, _, data = bridge_env(*args)
+        start = module.start_episodes
+
+        def start_and_hold(env):
+            obs = start(env)
+            holders.append(Holder(env))
+            return obs
+
+        monkeypatch.setattr(module, "start_episodes", start_and_hold, raising=False)
+        return env, lambda obs: holders[-1](obs), data
+
+    monkeypatch.setattr(module, "bridge_env", holding_env)
+    return holders
+
+
+def test_rise_motion_of_a_kneeling_robot_holding_its_joints(run, monkeypatch):
+    module = _script("probe_rise_motion")
+    holders = _holding(module, monkeypatch)
+    out = module.motion(run, 2, [2], EPISODES, 3, "half_kneeling", "kneeling")
+    assert out["iteration"] == 0 and list(out["levels"]) == ["2/2"]
+    level = out["levels"]["2/2"]
+    assert level["stood_up"] == 0.0 and level["stood_up_medians"] is None
+    assert level["ended_by"] == {"stuck_low": EPISODES}
+    failed = level["failed_medians"]
+    assert failed["length_s"] == pytest.approx(2.0)  # the env's stuck_time
+    # the same figures from what the actor saw: the start and the states after every step
+    # but the last, which ended the episodes and reset them
+    (holder,) = holders
+    steps = int(round(2.0 / 0.02))
+    com = np.stack(holder.com)
+    assert len(com) == steps
+    travel = np.einsum("tnk,nk->tn", com[1:, :, :2] - com[0, :, :2], holder.heading)
+    want = {"com_ahead_m": np.maximum(travel.max(0), 0.0),
+            "com_behind_m": np.maximum(-travel.min(0), 0.0),
+            "peak_height_m": com[1:, :, 2].max(0),
+            "shin_up": np.stack(holder.shin_up).max(2).max(0)}
+    for name, value in want.items():
+        assert failed[name] == pytest.approx(np.median(value), abs=1e-3), name
+    assert failed["shin_up"] < 0.5  # both shins still down
+
+
+def test_no_bridge_level_rises_holding_its_joints(run, monkeypatch):
+    module = _script("probe_bridge_levels")
+    monkeypatch.setattr(module, "first_episodes",
+                        lambda env, actor, first=module.first_episodes: first(env, Holder(env)))
+    out = module.probe(run, 2, EPISODES, 3, "squatting", "sitting", torque_scale=2.0)
+    assert out["stood_up_by_level"] == {"0/2": 0.0, "1/2": 0.0, "2/2": 0.0}
+    assert out["torque_scale"] == pytest.approx(2.0) and out["episodes"] == EPISODES
+    with pytest.raises(ValueError, match="torque-scale"):
+        module.probe(run, 2, EPISODES, 3, "squatting", "sitting", torque_scale=0.5)
+
+
+def test_assisted_pose_probe_pulls_at_each_fraction_and_never_anneals(run, monkeypatch):
+    module = _script("probe_assisted_poses")
+    pulls: dict[float, list[np.ndarray]] = {}
+
+    def holding_first(env, actor, first=module.first_episodes):
+        holder, seen = Holder(env), pulls.setdefault(env.assist.fraction, [])
+
+        def act(obs):
+            # the torso's vertical force of the step before, over the robot's weight m g
+            seen.append(env.xfrc[:, env.torso, 2] / (env._state["mass"] * GRAVITY))
+            return holder(obs)
+
+        return first(env, act)
+
+    monkeypatch.setattr(module, "first_episodes", holding_first)
+    out = module.probe(run, "kneeling", [0.0, 0.6], EPISODES, 3)
+    assert out["stood_up_by_fraction"] == {"0": 0.0, "0.6": 0.0}
+    assert out["pose"] == "kneeling" and out["episodes"] == EPISODES
+    unassisted, pulled = np.stack(pulls[0.0][1:]), np.stack(pulls[0.6][1:])
+    assert np.all(unassisted == 0.0)
+    # a kneeling torso is upright: the pull acts (0.6 m g) whenever no push does
+    assert np.median(pulled) == pytest.approx(0.6, abs=1e-3)
+    with pytest.raises(ValueError, match="unknown pose"):
+        module.probe(run, "lotus", [0.0], EPISODES, 3)
+    with pytest.raises(ValueError, match="fractions"):
+        module.probe(run, "kneeling", [1.0], EPISODES, 3)
