@@ -59,6 +59,13 @@ def test_contact_and_model_are_checked_first(tmp_path, capsys):
     assert not out.exists()
 
 
+def test_report_names_a_missing_results_file(tmp_path, capsys):
+    missing = tmp_path / "results.jsonl"
+    err = _error(capsys, ["report", str(missing), "--out", str(tmp_path / "report")])
+    assert err == f"error: results file not found: {missing}\n"
+    assert not (tmp_path / "report").exists()
+
+
 @pytest.mark.parametrize(("option", "value", "expected"), [
     ("--trials", "-5", "an integer >= 1"),
     ("--trials", "2.5", "an integer >= 1"),
@@ -84,12 +91,26 @@ def test_debug_adds_the_traceback(capsys):
     assert capsys.readouterr().err.startswith("Traceback")
 
 
+def test_an_unexpected_exception_is_named_as_a_bug(capsys):
+    def buggy() -> int:
+        return None + 1  # type: ignore[operator]
+
+    assert report_errors(buggy, debug=False) == 2
+    assert capsys.readouterr().err == (
+        "error: TypeError: unsupported operand type(s) for +: 'NoneType' and 'int' (a bug: "
+        "run with --debug for the traceback and report it)\n")
+
+
 def test_interrupt_is_one_line_and_exit_130(capsys):
     def interrupted() -> int:
         raise KeyboardInterrupt
 
     assert report_errors(interrupted, debug=False) == 130
     assert capsys.readouterr().err == "interrupted\n"
+
+
+def _default_sigint() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
 def test_ctrl_c_during_eval_keeps_the_finished_trials(tmp_path):
@@ -99,7 +120,8 @@ def test_ctrl_c_during_eval_keeps_the_finished_trials(tmp_path):
            "--trials", "200", "--duration", "3", "--workers", "2", "--out", str(out)]
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env=env, start_new_session=True)
+                            env=env, start_new_session=True,  # SIGINT handled even when the
+                            preexec_fn=_default_sigint)        # tests run as a background job
     deadline = time.time() + 180
     while time.time() < deadline and proc.poll() is None:
         if results.is_file() and len(results.read_text().splitlines()) >= 4:

@@ -27,14 +27,17 @@ class EvaluationInterrupted(KeyboardInterrupt):
 
 
 def _init_worker(controller: str, model_path: str | None, contact: str,
-                 ignore_sigint: bool = False) -> None:
+                 ignore_sigint: bool = False, rotor_inertia: bool = False,
+                 stop_on_success: bool = False) -> None:
     if ignore_sigint:  # the parent alone handles Ctrl-C (one line, not one per worker)
         signal.signal(signal.SIGINT, signal.SIG_IGN)
-    _WORKER.update(controller=make_controller(controller), model=model_path, contact=contact)
+    _WORKER.update(controller=make_controller(controller), model=model_path, contact=contact,
+                   rotor_inertia=rotor_inertia, stop=stop_on_success)
 
 
 def _work(scenario: Scenario) -> dict:
-    return run_trial(_WORKER["controller"], scenario, _WORKER["model"], _WORKER["contact"])
+    return run_trial(_WORKER["controller"], scenario, _WORKER["model"], _WORKER["contact"],
+                     rotor_inertia=_WORKER["rotor_inertia"], stop_on_success=_WORKER["stop"])
 
 
 def completed_keys(results: Path) -> set[str]:
@@ -79,7 +82,13 @@ def check_same_run(results: Path, meta: dict) -> None:
 
 
 def load_results(results: str | Path) -> list[dict]:
-    """All complete result rows of a JSON-lines results file."""
+    """All complete result rows of a JSON-lines results file.
+
+    Raises:
+        FileNotFoundError: ``results file not found: <path>``.
+    """
+    if not Path(results).is_file():
+        raise FileNotFoundError(f"results file not found: {results}")
     rows = []
     for line in Path(results).read_text().splitlines():
         try:
@@ -114,14 +123,18 @@ def header_provenance(header: dict) -> dict | None:
 
 def run_protocol(scenarios: list[Scenario], controller: str, results: str | Path,
                  model_path: str | None = None, contact: str = "default", workers: int = 2,
-                 header: dict | None = None, progress: bool = True) -> list[dict]:
+                 header: dict | None = None, progress: bool = True,
+                 rotor_inertia: bool = False, stop_on_success: bool = False) -> list[dict]:
     """Runs every scenario not yet in ``results`` and appends one JSON line per trial.
+
+    With ``stop_on_success`` each trial ends once it has succeeded (see
+    :func:`run_trial`).
 
     A killed run resumes where it stopped: finished trials are skipped by key. The first
     line of a new file is a header with the controller (and its policy's provenance), the
-    model, the contact setting and ``header`` (the protocol's configuration and seed); an
-    existing file is resumed only if its header is the same, since trial keys name the
-    scenario, not who ran it.
+    model, the contact setting, the rotor inertia and ``header`` (the protocol's
+    configuration and seed); an existing file is resumed only if its header is the same,
+    since trial keys name the scenario, not who ran it.
 
     Ctrl-C stops the run: every finished trial is already in the file (written and
     flushed as it arrives), the workers are ended, and
@@ -141,6 +154,8 @@ def run_protocol(scenarios: list[Scenario], controller: str, results: str | Path
     results.parent.mkdir(parents=True, exist_ok=True)
     meta = {"key": HEADER_KEY, "controller": controller, "model": model_path,
             "contact": contact, **(header or {})}
+    if rotor_inertia:  # absent otherwise: older results files stay resumable
+        meta["rotor_inertia"] = True
     if (policy := policy_provenance(built)) is not None:
         meta["policy"] = policy
     if results.is_file():
@@ -154,12 +169,14 @@ def run_protocol(scenarios: list[Scenario], controller: str, results: str | Path
         if results.read_bytes()[-1:] not in (b"", b"\n"):
             out.write("\n")  # end a line torn by a killed run
         if workers <= 1:
-            _init_worker(controller, model_path, contact)
+            _init_worker(controller, model_path, contact, rotor_inertia=rotor_inertia,
+                         stop_on_success=stop_on_success)
             rows: Iterator[dict] = map(_work, todo)
             pool = None
         else:
             pool = mp.get_context("fork").Pool(workers, _init_worker,
-                                               (controller, model_path, contact, True))
+                                               (controller, model_path, contact, True,
+                                                rotor_inertia, stop_on_success))
             rows = pool.imap_unordered(_work, todo)
         try:
             for row in rows:

@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field, fields, replace
-from typing import Any
+from typing import Any, get_type_hints
 
+from hybrid_recovery.envs.config_values import checked_value
 from hybrid_recovery.envs.removed import drop_removed
 
 
@@ -95,11 +96,13 @@ networks' shapes or the run's identity."""
 
 def amend_train_config(cfg: TrainConfig, changes: dict[str, Any]) -> TrainConfig:
     """``cfg`` with ``changes`` applied: ``ppo.<field>`` keys set PPO hyperparameters,
-    ``train.<field>`` keys the :data:`AMENDABLE` TrainConfig fields, every other key is a
-    dotted EnvConfig override (checked when the env config is built).
+    ``train.<field>`` keys the :data:`AMENDABLE` TrainConfig fields (both checked against
+    the field's declared type), every other key is a dotted EnvConfig override (checked
+    when the env config is built).
 
     Raises:
         KeyError: naming an unknown PPO field or a TrainConfig field that cannot change.
+        ValueError: ``config key 'ppo.<field>' must be ..., got ...``.
     """
     ppo = asdict(cfg.ppo)
     env = dict(cfg.env_overrides)
@@ -110,12 +113,12 @@ def amend_train_config(cfg: TrainConfig, changes: dict[str, Any]) -> TrainConfig
             if name not in AMENDABLE:
                 raise KeyError(f"'{name}' cannot change in a resumed run; amendable: "
                                f"{list(AMENDABLE)}")
-            train[name] = value
+            train[name] = checked_value(key, value, get_type_hints(TrainConfig)[name])
         elif key.startswith("ppo."):
             name = key.removeprefix("ppo.")
             if name not in ppo:
                 raise KeyError(f"unknown PPO setting '{name}'; known: {sorted(ppo)}")
-            ppo[name] = value
+            ppo[name] = checked_value(key, value, get_type_hints(PPOConfig)[name])
         else:
             env[key] = value
     return replace(cfg, ppo=PPOConfig(**ppo), env_overrides=env, **train)
