@@ -1,8 +1,17 @@
 """hybrid_recovery: humanoid balance and fall recovery for the Unitree H1-2.
 
+Implements Poddar et al., "Embedding Classical Balance Control Principles in Reinforcement
+Learning for Humanoid Recovery", arXiv 2603.08619; "paper §…" in the docstrings cites its
+sections (§III-B learning architecture, §III-C observations, §III-D actions, §III-E rewards,
+§III-F curriculum, §III-G randomisation, §IV experiments).
+
 The flat public API; see the subpackages for the rest.
 """
 
+# First: MuJoCo reads MUJOCO_GL when it is imported, so the OpenGL backend is chosen here.
+from hybrid_recovery.sim import gl_backend  # noqa: F401
+
+# isort: split
 from hybrid_recovery.dynamics import GRAVITY, BalanceState, RobotModel, net_centroidal_wrench
 from hybrid_recovery.dynamics.capturability import (
     capture_point,

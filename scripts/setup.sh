@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Installs hybrid_recovery and its pinned stack into the active Python environment.
-# torch 2.13.0 first: on CPU machines it resolves to the local CPU build (FACTS.md); the
+# torch 2.13.0 first: on CPU machines it resolves to the local CPU build; the
 # rest then installs no second torch.
 set -euo pipefail
 cd "$(dirname "$0")/.."

@@ -161,3 +161,32 @@ def test_model_errors(tmp_path):
     broken.write_text("<mujoco><worldbody><body></mujoco>")
     with pytest.raises(ValueError, match="cannot parse MJCF"):
         RobotModel.from_mjcf(broken)
+
+
+def test_unnormalised_base_quaternion_is_read_as_mujoco_reads_it(own_model):
+    rng = np.random.default_rng(7)
+    qpos, qvel = random_state(own_model.mj_model, rng)
+    qpos[3:7] = (0.9, 0.1, 0.0, 0.0)  # norm 0.906: MuJoCo normalises it
+    com, com_vel, lin, ang = _mujoco_momentum(own_model.mj_model, qpos, qvel)
+    state = own_model.balance_state(qpos, qvel)
+    np.testing.assert_allclose(state.com, com, atol=1e-9)
+    np.testing.assert_allclose(state.linear_momentum, lin, rtol=1e-6, atol=1e-6)
+    np.testing.assert_allclose(state.angular_momentum, ang, rtol=1e-6, atol=1e-6)
+    unit = qpos.copy()
+    unit[3:7] /= np.linalg.norm(unit[3:7])
+    np.testing.assert_allclose(own_model.centroidal_momentum_matrix(qpos),
+                               own_model.centroidal_momentum_matrix(unit), atol=1e-12)
+    assert qpos[3] == 0.9  # the caller's array is not changed
+
+
+def test_zero_base_quaternion_is_refused(own_model):
+    qpos = np.zeros((3, own_model.nq))
+    qpos[:, 3] = 1.0
+    qpos[2, 3:7] = 0.0
+    qvel = np.zeros((3, own_model.nv))
+    for call in (lambda: own_model.balance_state(qpos, qvel),
+                 lambda: own_model.centroidal_momentum_matrix(qpos),
+                 lambda: own_model.centroidal_momentum_drift(qpos, qvel)):
+        with pytest.raises(ValueError) as info:
+            call()
+        assert str(info.value) == "qpos base quaternion qpos[3:7] is zero (rows [2])"

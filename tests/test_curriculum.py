@@ -1,4 +1,4 @@
-"""The three-stage curriculum of SPEC §5 as a state machine (no simulator)."""
+"""The three-stage curriculum of the paper (§III-F) as a state machine (no simulator)."""
 
 from __future__ import annotations
 

@@ -1,7 +1,7 @@
 """The controller and the simulated robot as two processes over loopback DDS.
 
-``deploy/sim_robot.py`` (MuJoCo 1 kHz, LowState_ at 500 Hz, robot on a gantry for 2.5 s
-after the first command) and ``deploy/run_robot.py`` (state machine + a zero-action ONNX
+``hybrid-recovery sim-robot`` (MuJoCo 1 kHz, LowState_ at 500 Hz, robot on a gantry for 2.5
+s after the first command) and ``hybrid-recovery run-robot`` (state machine + a zero-action ONNX
 stand-in, 4 s) on ``lo`` with a random domain id. The controller must see states with
 increasing ticks and go through zero torque → interpolate → hold → policy → damping; the
 robot must accept every command it got (valid CRC) and be standing when damping begins.
@@ -24,10 +24,11 @@ TIMEOUT_S = 55.0
 """Both processes together must finish within this (hard kill after)."""
 
 
-def _spawn(script: str, *args: str) -> subprocess.Popen:
+def _spawn(subcommand: str, *args: str) -> subprocess.Popen:
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    return subprocess.Popen([sys.executable, str(ROOT / "deploy" / script), *args], env=env,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    return subprocess.Popen([sys.executable, "-m", "hybrid_recovery.cli.main", subcommand,
+                             *args], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            text=True)
 
 
 def _report(proc: subprocess.Popen, deadline: float, others: list[subprocess.Popen]) -> dict:
@@ -37,7 +38,7 @@ def _report(proc: subprocess.Popen, deadline: float, others: list[subprocess.Pop
         for p in [proc, *others]:
             p.kill()
             p.communicate()
-        pytest.fail(f"{proc.args[1]} did not finish within {TIMEOUT_S} s")
+        pytest.fail(f"{proc.args[3]} did not finish within {TIMEOUT_S} s")
     assert proc.returncode == 0, err[-3000:]
     return json.loads(out.strip().splitlines()[-1])
 
@@ -45,15 +46,15 @@ def _report(proc: subprocess.Popen, deadline: float, others: list[subprocess.Pop
 @pytest.mark.dds
 def test_controller_stands_the_simulated_robot_up_over_loopback(tmp_path):
     pytest.importorskip("cyclonedds", reason="cyclonedds (extra 'deploy') not installed")
-    from hybrid_recovery.deploy.stand_in import write_stand_in_policy
+    from hybrid_recovery.training.stand_in import write_stand_in_policy
 
     policy = write_stand_in_policy(tmp_path / "zero", "zero")
     domain = str(random.SystemRandom().randint(1, 200))
-    robot = _spawn("sim_robot.py", "--domain", domain, "--interface", "lo", "--gantry-s", "2.5",
+    robot = _spawn("sim-robot", "--domain", domain, "--interface", "lo", "--gantry-s", "2.5",
                    "--seconds", "45", "--idle-exit-s", "0.3")
     # zero torque 0.3 s, interpolate 2 s, hold 0.5 s (gantry released at 2.5 s), policy
     # from 2.8 s, damping at 4 s
-    controller = _spawn("run_robot.py", "--policy", str(policy), "--domain", domain,
+    controller = _spawn("run-robot", "--policy", str(policy), "--domain", domain,
                         "--interface", "lo", "--seconds", "4", "--zero-torque-s", "0.3",
                         "--hold-s", "0.5", "--wait-timeout-s", "40",
                         # this test is about the protocol and the sequence: on a shared,
@@ -85,7 +86,7 @@ def test_controller_stands_the_simulated_robot_up_over_loopback(tmp_path):
 def test_no_robot_gives_a_clear_timeout(tmp_path):
     pytest.importorskip("cyclonedds", reason="cyclonedds (extra 'deploy') not installed")
     from hybrid_recovery.deploy.bridge import run_controller
-    from hybrid_recovery.deploy.stand_in import write_stand_in_policy
+    from hybrid_recovery.training.stand_in import write_stand_in_policy
 
     policy = write_stand_in_policy(tmp_path / "zero", "zero")
     domain = random.SystemRandom().randint(1, 200)

@@ -2,7 +2,7 @@
 
 A policy is trained for one PPO iteration on 8 envs and exported; then, in closed loop
 with the training environment, the runner's observation (built from the robot-side state
-through :class:`RobotState`) must equal the environment's clean observation, and its
+through :class:`LowStateReading`) must equal the environment's clean observation, and its
 onnxruntime action the torch actor's action on that observation.
 """
 
@@ -17,14 +17,14 @@ import torch
 from tensordict import TensorDict
 
 from hybrid_recovery.deploy.policy_runner import ACTION_CLIP, PolicyMismatchError, PolicyRunner
-from hybrid_recovery.deploy.robot_io import RobotState
-from hybrid_recovery.deploy.stand_in import write_stand_in_policy
+from hybrid_recovery.deploy.robot_io import LowStateReading
 from hybrid_recovery.envs import RecoveryEnv
 from hybrid_recovery.observation import ACTOR_OBS_DIM
 from hybrid_recovery.robot import constants
 from hybrid_recovery.training import TrainConfig, load_checkpoint, train
 from hybrid_recovery.training.export import actor_from_checkpoint, export_policy
 from hybrid_recovery.training.runner import make_env_config
+from hybrid_recovery.training.stand_in import write_stand_in_policy
 
 FAST = {"curriculum.window": 8, "curriculum.advance_success": 0.0}
 
@@ -38,12 +38,13 @@ def exported(tmp_path_factory):
     return run, export_policy(run, run / "export"), cfg
 
 
-def _robot_state(env: RecoveryEnv, i: int, tick: int) -> RobotState:
+def _robot_state(env: RecoveryEnv, i: int, tick: int) -> LowStateReading:
     """What the robot would report for env ``i``: torso IMU sensors and joint encoders."""
     sd = env.sims.bind("sensordata")[i]
-    return RobotState(tick=tick, quat=sd[env.layout.quat].copy(), gyro=sd[env.layout.gyro].copy(),
-                      q=env.qpos[i, env.qadr].copy(), dq=env.qvel[i, env.dadr].copy(),
-                      tau_est=np.zeros(constants.NUM_JOINTS))
+    return LowStateReading(tick=tick, quat=sd[env.layout.quat].copy(),
+                           gyro=sd[env.layout.gyro].copy(), q=env.qpos[i, env.qadr].copy(),
+                           dq=env.qvel[i, env.dadr].copy(),
+                           tau_est=np.zeros(constants.NUM_JOINTS))
 
 
 def test_runner_matches_the_training_policy_in_closed_loop(exported):
@@ -122,9 +123,10 @@ def test_missing_files_are_named(tmp_path):
 
 def test_zero_stand_in_commands_the_default_pose(tmp_path):
     runner = PolicyRunner(write_stand_in_policy(tmp_path / "zero", "zero"))
-    state = RobotState(tick=0, quat=np.array([0.9, 0.1, 0.3, 0.0]), gyro=np.ones(3),
-                       q=np.full(constants.NUM_JOINTS, 0.3), dq=np.ones(constants.NUM_JOINTS),
-                       tau_est=np.zeros(constants.NUM_JOINTS))
+    state = LowStateReading(tick=0, quat=np.array([0.9, 0.1, 0.3, 0.0]), gyro=np.ones(3),
+                            q=np.full(constants.NUM_JOINTS, 0.3),
+                            dq=np.ones(constants.NUM_JOINTS),
+                            tau_est=np.zeros(constants.NUM_JOINTS))
     out = runner.step(state)
     np.testing.assert_array_equal(out.action, 0.0)
     np.testing.assert_array_equal(out.q_ref, constants.DEFAULT_JOINT_POS)

@@ -10,15 +10,15 @@ import numpy as np
 import pytest
 
 from hybrid_recovery.deploy.balance_trace import COLUMNS
-from hybrid_recovery.deploy.limits import SafetyLimits
 from hybrid_recovery.deploy.policy_runner import PolicyRunner
 from hybrid_recovery.deploy.robot_io import JointCommand
 from hybrid_recovery.deploy.sim2sim import Sim2SimConfig, run_sim2sim
 from hybrid_recovery.deploy.sim_robot import SimRobot, SimRobotConfig
-from hybrid_recovery.deploy.stand_in import write_stand_in_policy
 from hybrid_recovery.deploy.state_machine import Phase, SafetyConfig, SafetyStateMachine
 from hybrid_recovery.deploy.wire import decode_low_state, encode_low_cmd
 from hybrid_recovery.robot import constants
+from hybrid_recovery.robot.limits import SafetyLimits
+from hybrid_recovery.training.stand_in import write_stand_in_policy
 
 N = constants.NUM_JOINTS
 

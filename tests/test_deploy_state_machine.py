@@ -8,8 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hybrid_recovery.deploy.limits import SafetyLimits
-from hybrid_recovery.deploy.robot_io import RobotState
+from hybrid_recovery.deploy.robot_io import LowStateReading
 from hybrid_recovery.deploy.state_machine import (
     Fault,
     Phase,
@@ -18,17 +17,18 @@ from hybrid_recovery.deploy.state_machine import (
     SafetyStateMachine,
 )
 from hybrid_recovery.robot import constants
+from hybrid_recovery.robot.limits import SafetyLimits
 
 N = constants.NUM_JOINTS
 DT = 0.02
 LIMITS = SafetyLimits(q_min=np.full(N, -1.0), q_max=np.full(N, 1.0))
 
 
-def _state(tick: int, t: float, q: np.ndarray | None = None, **kw) -> RobotState:
+def _state(tick: int, t: float, q: np.ndarray | None = None, **kw) -> LowStateReading:
     fields = dict(quat=np.array([1.0, 0, 0, 0]), gyro=np.zeros(3),
                   q=np.zeros(N) if q is None else q, dq=np.zeros(N), tau_est=np.zeros(N))
     fields.update(kw)
-    return RobotState(tick=tick, t_receive=t, **fields)
+    return LowStateReading(tick=tick, t_receive=t, **fields)
 
 
 def _policy(q_ref: np.ndarray | None = None, obs_nan: bool = False,
@@ -195,9 +195,9 @@ def test_states_with_a_bad_crc_are_ignored_and_go_stale():
     for _ in range(6):
         t += DT
         tick += 10
-        d.sm.tick(t, RobotState(tick=tick, quat=np.array([1.0, 0, 0, 0]), gyro=np.zeros(3),
-                                q=np.zeros(N), dq=np.zeros(N), tau_est=np.zeros(N),
-                                t_receive=t, crc_ok=False))
+        d.sm.tick(t, LowStateReading(tick=tick, quat=np.array([1.0, 0, 0, 0]), gyro=np.zeros(3),
+                                     q=np.zeros(N), dq=np.zeros(N), tau_est=np.zeros(N),
+                                     t_receive=t, crc_ok=False))
     assert d.sm.fault is Fault.STALE_STATE
     assert d.sm.state.tick == d.tick
 

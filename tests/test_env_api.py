@@ -8,10 +8,10 @@ import pytest
 import torch
 
 from hybrid_recovery.envs import RecoveryEnv, default_config
-from hybrid_recovery.envs.initial_states import POSES
 from hybrid_recovery.envs.rewards import REWARD_TERMS
 from hybrid_recovery.envs.terminations import TERMINATIONS
 from hybrid_recovery.observation import ACTOR_OBS_DIM
+from hybrid_recovery.sim.initial_states import POSES
 
 NUM_ENVS = 8
 EPISODE_STEPS = 12
@@ -121,7 +121,7 @@ def test_reduced_critic_is_the_actor_observation():
     assert obs["policy"].shape == obs["critic"].shape == (NUM_ENVS, 87)
     obs, *_ = env.step(torch.zeros(NUM_ENVS, env.num_actions))
     assert obs["critic"].shape == (NUM_ENVS, 87)
-    # the critic sees the clean observation, the actor the noisy one (SPEC §2)
+    # the critic sees the clean observation, the actor the noisy one (paper §III-C, §III-G)
     noise = (obs["policy"] - obs["critic"]).abs().amax(0).numpy()
     np.testing.assert_array_less(noise, env.noise + 1e-6)
     assert noise[:3].max() > 0.1 and noise[-27:].max() == 0.0  # no noise on the last action

@@ -1,4 +1,4 @@
-"""Actuation delay (SPEC §3): a step in the action reaches the actuators exactly the
+"""Actuation delay (paper §III-D): a step in the action reaches the actuators exactly the
 episode's sampled delay later, checked substep by substep against an undelayed replay."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""r_feet's and r_shin's inputs from the env: each foot's normal force is MuJoCo's own
+"""r_feet's inputs and the shin axes from the env: each foot's normal force is MuJoCo's own
 contact force on it, the sole normals and shin axes are those of Pinocchio's foot and knee
 frames; standing robots carry their weight on flat feet with their knees over their
 ankles, kneeling ones neither."""
@@ -14,7 +14,7 @@ import torch
 from hybrid_recovery.dynamics import GRAVITY, RobotModel
 from hybrid_recovery.dynamics.conventions import qpos_to_pin
 from hybrid_recovery.envs import RecoveryEnv, default_config
-from hybrid_recovery.envs.rewards import feet_load, shins_up
+from hybrid_recovery.envs.rewards import feet_load
 from hybrid_recovery.robot import constants
 
 NUM_ENVS = 8
@@ -92,15 +92,9 @@ def test_shin_axes_are_the_pinocchio_ankle_to_knee_directions(standing, i):
     np.testing.assert_allclose(env._state["shin_up"][i], want, atol=1e-9)
 
 
-def test_standing_robots_have_their_knees_over_their_ankles(standing):
-    rs = standing._reward_state(np.zeros(NUM_ENVS, bool))  # default shin tilt 0.2 rad
-    assert (shins_up(rs, standing.cfg.rewards, standing.h_star) > 0.9).all()
-
-
 def test_a_kneeling_robot_has_no_weight_on_flat_feet_and_its_shins_down():
     env = _held("kneeling", 25)
     rs = env._reward_state(np.zeros(NUM_ENVS, bool))
     assert (env._state["foot_up"] < 0.0).all()  # soles facing back, toes on the ground
     assert (feet_load(rs, env.cfg.rewards, env.h_star) == 0.0).all()
     assert (env._state["shin_up"] < 0.0).all()  # the feet behind, raised on their toes
-    assert (shins_up(rs, env.cfg.rewards, env.h_star) == 0.0).all()

@@ -10,7 +10,7 @@ from gymnasium.utils.env_checker import check_env
 
 from hybrid_recovery.envs import default_config
 from hybrid_recovery.envs.gym_env import ACTION_BOUND, RecoveryGymEnv
-from hybrid_recovery.policy import ACTION_CLIP
+from hybrid_recovery.robot.action import ACTION_CLIP
 
 EPISODE_STEPS = 10
 

@@ -1,4 +1,4 @@
-"""Initial states (SPEC §5–§6): settled pool states and perturbed, re-seated episode starts
+"""Initial states (paper §III-F–§III-G): settled pool states and perturbed, re-seated episode starts
 are physically valid (no penetration of the ground) with plausible CoM heights.
 
 CoM heights [m] of the project's H1-2 (h* = 0.92 m standing):
@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 from hybrid_recovery.envs import RecoveryEnv, default_config
-from hybrid_recovery.envs.initial_states import POSES, robot_geoms
+from hybrid_recovery.sim.initial_states import POSES, robot_geoms
 
 NUM_ENVS = 16
 POOL_COM = {"standing": (0.88, 0.95), "squatting": (0.48, 0.62), "kneeling": (0.30, 0.60),

@@ -1,4 +1,4 @@
-"""Torso pushes and domain randomisation (SPEC §6) at full difficulty.
+"""Torso pushes and domain randomisation (paper §III-G) at full difficulty.
 
 Pushes are checked against the momentum they give a free-floating robot (no gravity, no
 ground): Δp_l = ∫F dt, since every other force on the robot is internal.

@@ -8,13 +8,13 @@ import torch
 
 from hybrid_recovery.envs import RecoveryEnv, default_config
 from hybrid_recovery.envs.terminations import (
-    SUCCESS_HEIGHT,
     SUCCESS_TILT,
     TERMINATIONS,
     StuckLow,
     success_step,
     upright,
 )
+from hybrid_recovery.robot.constants import UPRIGHT_COM_HEIGHT
 
 DT = 0.02
 UPRIGHT_HEIGHT = 0.85
@@ -102,7 +102,7 @@ def test_each_env_keeps_its_own_window():
     np.testing.assert_array_equal(flags, [True, True, False])
 
 
-# ---------------------------------------------------------------- success (SPEC §7)
+# ---------------------------------------------------------------- success (paper §IV-A3)
 def gravity_at_tilt(deg: float) -> np.ndarray:
     t = np.deg2rad(deg)
     return np.array([[np.sin(t), 0.0, -np.cos(t)]])
@@ -120,7 +120,7 @@ def test_upright(height, vel, tilt, ok):
 
 
 def test_success_constants_are_the_papers():
-    assert SUCCESS_HEIGHT == 0.85 and np.rad2deg(SUCCESS_TILT) == pytest.approx(72.0)
+    assert UPRIGHT_COM_HEIGHT == 0.85 and np.rad2deg(SUCCESS_TILT) == pytest.approx(72.0)
     assert TERMINATIONS == ("timeout", "torso_contact", "stuck_low", "nan")
 
 

@@ -50,7 +50,7 @@ def test_three_ppo_iterations_with_asymmetric_critic(run):
 
 def test_the_trained_policy_plays_through_onnx(run):
     """The exported actor under onnxruntime (as ``play --policy``) equals the torch actor."""
-    from hybrid_recovery.envs.play import onnx_policy
+    from hybrid_recovery.evaluation.play import onnx_policy
     from hybrid_recovery.training.export import actor_from_checkpoint, export_policy
 
     run_dir, _ = run

@@ -131,6 +131,7 @@ def test_eval_poses_restricts_the_poses_protocol_too():
     from argparse import Namespace
 
     from hybrid_recovery.cli.cmd_eval import _scenarios
+    from hybrid_recovery.cli.errors import UsageError
 
     def args(protocol, poses):
         return Namespace(protocol=protocol, trials=40, seed=2, duration=None, poses=poses)
@@ -141,7 +142,7 @@ def test_eval_poses_restricts_the_poses_protocol_too():
     assert {s.pose for s in _scenarios(args("sweep", ["kneeling"]))} == {"kneeling"}
     with pytest.raises(ValueError, match="unknown pose 'flying'"):
         _scenarios(args("poses", ["squatting", "flying"]))
-    with pytest.raises(SystemExit, match="pushes start from standing"):
+    with pytest.raises(UsageError, match="pushes start from standing"):
         _scenarios(args("pushes", ["kneeling"]))
 
 

@@ -7,9 +7,7 @@ import numpy as np
 import pytest
 
 from hybrid_recovery.control.torque_model import load_torque_model
-from hybrid_recovery.deploy.limits import SafetyLimits
 from hybrid_recovery.dynamics import RobotModel
-from hybrid_recovery.envs.initial_states import seat_single
 from hybrid_recovery.evaluation.scenario import Scenario
 from hybrid_recovery.evaluation.trial import start_state
 from hybrid_recovery.getup.feasibility import static_feasibility
@@ -17,6 +15,8 @@ from hybrid_recovery.getup.ground_state import GroundPose, classify, read_ground
 from hybrid_recovery.getup.keyframes import KEYFRAMES, mirror
 from hybrid_recovery.getup.move_executor import GroundMoves, MoveConfig
 from hybrid_recovery.robot import constants
+from hybrid_recovery.robot.limits import SafetyLimits
+from hybrid_recovery.sim.initial_states import seat_single
 
 KNEE_CHEST_CONTACTS = ("left_knee", "right_knee", "left_toes", "right_toes", "left_hand",
                        "right_hand", "head")

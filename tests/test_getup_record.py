@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 
 from hybrid_recovery.control.torque_model import load_torque_model
-from hybrid_recovery.envs.initial_states import POSES
 from hybrid_recovery.evaluation.getup_record import record_rises
 from hybrid_recovery.evaluation.handover_map import handover_map, handover_start
 from hybrid_recovery.getup.ground_state import classify, read_ground_pose
 from hybrid_recovery.policy import is_shipped
+from hybrid_recovery.sim.initial_states import POSES
 
 
 @pytest.mark.skipif(not is_shipped(), reason="no shipped policy")

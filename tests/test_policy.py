@@ -10,10 +10,11 @@ import numpy as np
 import pytest
 import torch
 
-from hybrid_recovery.deploy.stand_in import write_stand_in_policy
 from hybrid_recovery.observation import ACTOR_OBS_DIM
-from hybrid_recovery.policy import ACTION_CLIP, TARGET_RANGE_FACTOR, OnnxPolicy, joint_targets
+from hybrid_recovery.policy import OnnxPolicy
 from hybrid_recovery.robot import constants
+from hybrid_recovery.robot.action import ACTION_CLIP, TARGET_RANGE_FACTOR, joint_targets
+from hybrid_recovery.training.stand_in import write_stand_in_policy
 
 
 @pytest.fixture(scope="module")
@@ -124,10 +125,10 @@ def test_controllers_clamp_targets_as_training_and_the_robot_do(export, kind):
     import mujoco
 
     from hybrid_recovery.control.policy_controller import PolicyController
-    from hybrid_recovery.deploy.limits import SafetyLimits
     from hybrid_recovery.deploy.state_machine import SafetyConfig
     from hybrid_recovery.envs.config import CurriculumConfig
     from hybrid_recovery.evaluation.controllers import OnnxPolicyController
+    from hybrid_recovery.robot.limits import SafetyLimits
     from hybrid_recovery.robot.mjcf import load_mjmodel
 
     policy = OnnxPolicy(export)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from hybrid_recovery.envs.initial_states import quat_from_euler
+from hybrid_recovery.sim.initial_states import quat_from_euler
 from hybrid_recovery.training.probe import heading_xy
 
 

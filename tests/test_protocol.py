@@ -202,8 +202,48 @@ def test_idl_type_names_are_unitrees() -> None:
         assert name == f"unitree_hg::msg::dds_::{cls.__name__}"
 
 
-def test_xtypes_identity_matches_unitree_style_declaration() -> None:
-    """Written as Unitree's generated IDL (``types.array[...]``), the type ids agree.
+UNITREE_SDK2_TYPE_IDS = {
+    "MotorCmd_": ("827f55de9b9de38c62bacd1e56c9", "a2d9ced50a7956e2a607613a13f1"),
+    "MotorState_": ("7cc584ed940b8f3018f18de0ed24", "a86cbab3ae0aa98a1e746643a099"),
+    "IMUState_": ("fc687176651206558473df442280", "7d4166754177d86fa27cd25b0403"),
+}
+"""XTypes type identifiers (the 14-byte equivalence hashes of the minimal and complete
+TypeObjects) of Unitree's C++ SDK: the ``type_map_blob`` of the headers that cyclonedds'
+idlc generated in unitree_sdk2, ``include/unitree/idl/hg/HandCmd_.hpp`` (MotorCmd_) and
+``HandState_.hpp`` (MotorState_, IMUState_). A reader and a writer match only when these
+agree (with type information, as cyclonedds 11 exchanges it)."""
+
+TK_BYTE, TK_UINT8 = 0x02, 0x0D
+"""XTypes 1.3 type kinds of ``octet`` and ``uint8``."""
+
+
+@pytest.mark.parametrize("cls", [MotorCmd_, MotorState_, IMUState_], ids=lambda c: c.__name__)
+def test_type_identity_is_the_cpp_sdks(cls) -> None:
+    pytest.importorskip("cyclonedds", reason="cyclonedds (extra 'deploy') not installed")
+    info = cls.__idl__.get_type_info()
+    minimal = info.minimal.typeid_with_size.type_id
+    complete = info.complete.typeid_with_size.type_id
+    assert (minimal.discriminator, complete.discriminator) == (0xF1, 0xF2)  # EK_MINIMAL/COMPLETE
+    assert (minimal.value.hex(), complete.value.hex()) == UNITREE_SDK2_TYPE_IDS[cls.__name__]
+
+
+def _member_kinds(cls) -> dict:
+    """Member name hash → type kind, from the minimal TypeObject (arrays: element kind)."""
+    pair = cls.__idl__.get_type_mapping().identifier_object_pair_minimal[0]
+    kinds = {}
+    for member in pair.type_object.minimal.struct_type.member_seq:
+        type_id = member.common.member_type_id
+        if type_id.discriminator == 0x90:  # TI_PLAIN_ARRAY_SMALL
+            type_id = type_id.value.element_identifier
+        kinds[member.common.member_id] = type_id.discriminator
+    return kinds
+
+
+def test_every_8_bit_field_is_an_octet_with_unchanged_bytes() -> None:
+    """``LowCmd_.mode_pr, mode_machine``, ``LowState_.mode_pr, mode_machine,
+    wireless_remote`` are ``octet`` like ``MotorCmd_.mode`` and ``MotorState_.mode`` (whose
+    whole types match the C++ SDK above); declared ``uint8`` they would serialise to the
+    same bytes but be another type.
 
     (No ``from __future__ import annotations`` in this file: cyclonedds would have to
     resolve these local classes from string annotations.)
@@ -215,10 +255,14 @@ def test_xtypes_identity_matches_unitree_style_declaration() -> None:
     from cyclonedds.idl import annotations as annotate
     from cyclonedds.idl import types as t
 
+    assert [_member_kinds(LowCmd_)[i] for i in (0, 1)] == [TK_BYTE, TK_BYTE]
+    assert [_member_kinds(LowState_)[i] for i in (1, 2, 6)] == [TK_BYTE] * 3
+    assert _member_kinds(MotorCmd_)[0] == _member_kinds(MotorState_)[0] == TK_BYTE
+
     @dataclass
     @annotate.final
     @annotate.autoid("sequential")
-    class RefMotorCmd(IdlStruct, typename="unitree_hg.msg.dds_.MotorCmd_"):
+    class Uint8MotorCmd(IdlStruct, typename="unitree_hg.msg.dds_.MotorCmd_"):
         mode: t.uint8
         q: t.float32
         dq: t.float32
@@ -230,15 +274,19 @@ def test_xtypes_identity_matches_unitree_style_declaration() -> None:
     @dataclass
     @annotate.final
     @annotate.autoid("sequential")
-    class RefLowCmd(IdlStruct, typename="unitree_hg.msg.dds_.LowCmd_"):
+    class Uint8LowCmd(IdlStruct, typename="unitree_hg.msg.dds_.LowCmd_"):
         mode_pr: t.uint8
         mode_machine: t.uint8
-        motor_cmd: t.array[RefMotorCmd, 35]
+        motor_cmd: t.array[Uint8MotorCmd, 35]
         reserve: t.array[t.uint32, 4]
         crc: t.uint32
 
-    assert RefLowCmd.__idl__.get_type_id() == LowCmd_.__idl__.get_type_id()
-    assert RefLowCmd.deserialize(with_crc(default_low_cmd()).serialize()).crc == 4262932383
+    assert _member_kinds(Uint8LowCmd)[0] == TK_UINT8
+    assert Uint8LowCmd.__idl__.get_type_id() != LowCmd_.__idl__.get_type_id()
+    wire = with_crc(default_low_cmd()).serialize()
+    assert len(wire) == 4 + 1000
+    assert Uint8LowCmd.deserialize(wire).serialize() == wire  # the same bytes
+    assert Uint8LowCmd.deserialize(wire).crc == 4262932383
 
 
 def test_cdr_round_trip_keeps_crc_valid() -> None:

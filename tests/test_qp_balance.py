@@ -16,7 +16,7 @@ from hybrid_recovery.control import (
     run_episode,
     standing_data,
 )
-from hybrid_recovery.control.polygon import signed_distance
+from hybrid_recovery.control.polygon import signed_distance_scalar
 
 
 @pytest.fixture(scope="module")
@@ -68,7 +68,7 @@ def test_large_push_steps_into_the_capture_region_and_ends_standing(model):
     assert step.touchdown is not None
     # The sole lands where the last re-plan put it, inside its 1-step capture region
     # (5 mm for tracking).
-    assert signed_distance(step.touchdown, step.last_plan.region) < 0.005
+    assert signed_distance_scalar(step.touchdown, step.last_plan.region) < 0.005
     assert np.linalg.norm(step.touchdown - step.last_plan.target) < 0.01
     assert step.touchdown[0] > 0.15  # a forward step
 

@@ -12,7 +12,7 @@ from hybrid_recovery.control.polygon import (
     closest_point,
     convex_hull,
     shrink,
-    signed_distance,
+    signed_distance_scalar,
 )
 from hybrid_recovery.control.stepping import LEFT, RIGHT, plan_for_swing, plan_step
 from hybrid_recovery.control.swing import SwingTrajectory
@@ -33,8 +33,8 @@ def test_hull_and_signed_distance_match_the_dynamics_layer():
         hull = convex_hull(points)
         np.testing.assert_allclose(hull, reference.support_polygon(points))
         for p in rng.normal(size=(5, 2)) * 1.5:
-            assert signed_distance(p, hull) == pytest.approx(reference.signed_distance(p, hull),
-                                                             abs=1e-12)
+            assert signed_distance_scalar(p, hull) == pytest.approx(
+                reference.signed_distance(p, hull), abs=1e-12)
 
 
 def test_closest_point_is_the_projection():
@@ -44,7 +44,7 @@ def test_closest_point_is_the_projection():
     rng = np.random.default_rng(1)
     for p in rng.normal(size=(20, 2)) * 2:
         c = closest_point(p, SQUARE)
-        assert np.linalg.norm(p - c) == pytest.approx(max(signed_distance(p, SQUARE), 0.0))
+        assert np.linalg.norm(p - c) == pytest.approx(max(signed_distance_scalar(p, SQUARE), 0.0))
 
 
 def test_shrink_and_clip():
@@ -180,7 +180,7 @@ def test_forward_step_lands_in_the_capture_region():
     cfg = SteppingConfig()
     plan = plan_step(np.array([0.15, 0.0]), 3.3, FEET, CORNERS, ROTATIONS, cfg, 0.01)
     assert plan.capturable
-    assert signed_distance(plan.target, plan.region) <= 1e-9
+    assert signed_distance_scalar(plan.target, plan.region) <= 1e-9
     stance = FEET[1 - plan.swing]
     assert np.linalg.norm(plan.target - stance) <= cfg.step_length + 1e-9
     assert plan.target[0] > 0.2  # a forward step
@@ -196,7 +196,7 @@ def test_steps_never_cross_the_stance_foot(swing, xi_y):
     side = 1.0 if swing == LEFT else -1.0
     assert side * (plan.target[1] - FEET[1 - swing, 1]) >= cfg.min_width - 1e-9
     if plan.capturable:
-        assert signed_distance(plan.target, plan.region) <= 1e-9
+        assert signed_distance_scalar(plan.target, plan.region) <= 1e-9
 
 
 def test_lateral_capture_needs_more_than_one_step():

@@ -197,7 +197,7 @@ def test_nan_state_is_a_clear_error(model):
 
 
 def test_eval_adapter(model):
-    from hybrid_recovery.control import eval_controller
+    from hybrid_recovery.evaluation.model_controllers import eval_controller
 
     controller = eval_controller("qp")
     assert controller.torque_control and controller.physics_dt == model.opt.timestep

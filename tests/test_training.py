@@ -16,9 +16,9 @@ import pytest
 import torch
 
 from hybrid_recovery.envs import RecoveryEnv
-from hybrid_recovery.envs.initial_states import POSES
 from hybrid_recovery.envs.rewards import CAPTURE_POINT_TERMS
 from hybrid_recovery.observation import ACTOR_OBS_DIM
+from hybrid_recovery.sim.initial_states import POSES
 from hybrid_recovery.training import TrainConfig, load_checkpoint, train
 from hybrid_recovery.training.config import train_config_from_dict
 from hybrid_recovery.training.export import (
@@ -242,27 +242,6 @@ def test_amendments_change_a_resumed_run_and_are_recorded(tmp_path):
         meta["amendments"]
 
 
-def test_a_run_follows_a_reference_runs_amendments(tmp_path):
-    reference = tmp_path / "reference.json"
-    reference.write_text(json.dumps({"amendments": [
-        {"iteration": 2, "changes": {"ppo.entropy_coef": 0.001}},
-        {"iteration": 3, "changes": {"rewards.w_action_rate": 0.05}}]}))
-    run = tmp_path / "run"
-    runner = train(run, _cfg(iterations=4), follow=reference)
-    assert runner.current_learning_iteration == 3
-    meta = json.loads((run / "config.json").read_text())
-    assert meta["follow"] == str(reference)
-    assert [(a["iteration"], a["from"]) for a in meta["amendments"]] == \
-        [(2, str(reference)), (3, str(reference))]
-    assert runner.alg.entropy_coef == 0.001 and runner.env.cfg.rewards.w_action_rate == 0.05
-    # a resume keeps following: nothing is replayed twice
-    resumed = train(run, _cfg(iterations=5), resume=True)
-    assert resumed.current_learning_iteration == 4
-    assert len(json.loads((run / "config.json").read_text())["amendments"]) == 2
-    with pytest.raises(FileNotFoundError, match="no reference run config"):
-        train(tmp_path / "other", _cfg(), follow=tmp_path / "missing")
-
-
 def test_an_amended_assist_fraction_outranks_the_checkpoint(tmp_path):
     run = tmp_path / "run"
     train(run, _cfg(env_overrides={**FAST, "curriculum.advance_success": 1.1,
@@ -292,15 +271,16 @@ def test_probe_plays_one_episode_per_env_in_the_runs_own_env(tmp_path):
 
 
 def test_override_values_are_json_and_a_broken_list_is_refused():
+    from hybrid_recovery.cli.errors import UsageError
     from hybrid_recovery.cli.registry import parse_overrides
 
     assert parse_overrides(['bridge.pairs=[["squatting", "supine"]]', "rewards.w_cp=0",
-                            "assist.mode=gravity", "assist.max_height=Infinity"]) == {
+                            "curriculum.advance_on=success", "assist.max_height=Infinity"]) == {
         "bridge.pairs": [["squatting", "supine"]], "rewards.w_cp": 0,
-        "assist.mode": "gravity", "assist.max_height": float("inf")}
+        "curriculum.advance_on": "success", "assist.max_height": float("inf")}
     # unquoted names: once read as the string "[prone]", i.e. the poses "[", "p", "r", ...
     for bad in ("assist.poses=[prone]", "bridge.pairs=[[squatting, supine]]", "x={a: 1}"):
-        with pytest.raises(SystemExit, match="not valid JSON"):
+        with pytest.raises(UsageError, match="not valid JSON"):
             parse_overrides([bad])
-    with pytest.raises(SystemExit, match="key=value"):
+    with pytest.raises(UsageError, match="key=value"):
         parse_overrides(["rewards.w_cp"])

@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Starts, or resumes, a training run in the background at the lowest CPU priority.
 #   training/run_background.sh [VARIANT] [RUN_DIR] [extra train options...]
-# Progress: tail -f RUN_DIR.log ; curves: tensorboard --logdir RUN_DIR
+# Without arguments it trains the shipped policy's recipe (--variant recovery) in
+# runs/recovery. Progress: tail -f RUN_DIR.log ; curves: tensorboard --logdir RUN_DIR
 set -euo pipefail
-variant=${1:-full}
+variant=${1:-recovery}
 run_dir=${2:-runs/$variant}
 shift $(( $# > 2 ? 2 : $# ))
 if ! command -v hybrid-recovery >/dev/null; then

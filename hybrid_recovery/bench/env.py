@@ -54,9 +54,9 @@ def run_env_bench(n: int = 1024, repeat: int = 3, seed: int = 0, steps: int = 50
     inputs: list[tuple[np.ndarray, np.ndarray]] = []
     physics = env._physics
 
-    def recording_physics():  # the controls and pushes of each step, as applied
+    def recording_physics(failed):  # the controls and pushes of each step, as applied
         inputs.append((env.ctrl.copy(), env.xfrc.copy()))
-        return physics()
+        return physics(failed)
 
     env._physics = recording_physics  # type: ignore[method-assign]
     for _ in range(repeat):

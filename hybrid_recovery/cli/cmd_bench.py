@@ -1,19 +1,26 @@
-"""``hybrid-recovery bench``."""
+"""``hybrid-recovery bench {dynamics,env,train,qp,deploy}``: one command, one target each."""
 
 from __future__ import annotations
 
 import argparse
+import json
 
 from hybrid_recovery.cli.registry import command, parse_overrides
+from hybrid_recovery.cli.validate import integer, non_negative, positive
+
+LAYER_BENCHES = ("dynamics", "env", "train")
+"""Targets of :data:`hybrid_recovery.bench.BENCHES`: a table, then one JSON line."""
 
 
 def _bench(args: argparse.Namespace) -> int:
+    if args.what == "qp":
+        return _bench_qp(args)
+    if args.what == "deploy":
+        return _bench_deploy(args)
     from hybrid_recovery.bench import BENCHES
 
     options = {"n": args.n, "repeat": args.repeat, "seed": args.seed}
-    if args.set:
-        if args.what != "env":
-            raise SystemExit("--set applies to 'bench env' only")
+    if getattr(args, "set", None):
         options["overrides"] = parse_overrides(args.set)
     result = BENCHES[args.what](**{k: v for k, v in options.items() if v is not None})
     print(result.table())
@@ -21,17 +28,67 @@ def _bench(args: argparse.Namespace) -> int:
     return 0
 
 
-def _configure_bench(p: argparse.ArgumentParser) -> None:
-    from hybrid_recovery.bench import BENCHES
+def _bench_qp(args: argparse.Namespace) -> int:
+    from hybrid_recovery.bench.qp import push_sweep, solve_timing, sweep_table
 
-    p.add_argument("what", choices=sorted(BENCHES), help="what to time")
-    p.add_argument("-n", type=int, default=None,
-                   help="problem size, e.g. number of states (default: the bench's own)")
-    p.add_argument("--repeat", type=int, default=None, help="timed runs, the best is kept")
-    p.add_argument("--seed", type=int, default=None)
-    p.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
-                   help="EnvConfig overrides for 'bench env', e.g. physics_dt=0.01 decimation=2")
+    if args.mode in ("timing", "all"):
+        solve_timing(push_force=args.timing_push, duration=args.timing_duration)
+    if args.mode in ("sweep", "all"):
+        start, stop, step = (float(x) for x in args.forces.split(":"))
+        forces = [start + i * step for i in range(int(round((stop - start) / step)) + 1)]
+        stepping = {"off": (False,), "on": (True,), "both": (False, True)}[args.stepping]
+        rows = push_sweep(forces, args.directions.split(","), stepping, results=args.results)
+        print(sweep_table(rows))
+    return 0
+
+
+def _bench_deploy(args: argparse.Namespace) -> int:
+    from hybrid_recovery.bench.deploy import bench_deploy, format_bench
+
+    result = bench_deploy(args.seconds, args.policy, realtime=not args.no_realtime,
+                          domain_id=args.domain)
+    print(format_bench(result))
+    print(json.dumps({"bench": "deploy", **result}))
+    return 0 if result["controller"]["fault"] is None else 1
+
+
+def _configure_bench(p: argparse.ArgumentParser) -> None:
+    targets = p.add_subparsers(dest="what", required=True, metavar="{" + ",".join(
+        (*LAYER_BENCHES, "qp", "deploy")) + "}")
+    helps = {"dynamics": "balance quantities per state against mj_forward",
+             "env": "environment steps per second and their split",
+             "train": "end-to-end training throughput and the PPO update's share"}
+    for name in LAYER_BENCHES:
+        t = targets.add_parser(name, help=helps[name], description=helps[name])
+        t.add_argument("-n", type=integer(1), default=None,
+                       help="problem size, e.g. number of states (default: the bench's own)")
+        t.add_argument("--repeat", type=integer(1), default=None,
+                       help="timed runs, the best is kept")
+        t.add_argument("--seed", type=int, default=None)
+        if name == "env":
+            t.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
+                           help="EnvConfig overrides, e.g. physics_dt=0.01 decimation=2")
+    qp = targets.add_parser("qp", help="QP balance baseline: solve time per tick and the "
+                            "push-recovery sweep")
+    qp.add_argument("mode", nargs="?", default="all", choices=("timing", "sweep", "all"))
+    qp.add_argument("--timing-push", type=non_negative, default=300.0,
+                    help="push of the timed run [N]")
+    qp.add_argument("--timing-duration", type=positive, default=2.0, help="timed run [s]")
+    qp.add_argument("--forces", default="0:500:50", help="start:stop:step [N]")
+    qp.add_argument("--directions", default="+x,-x,+y,-y")
+    qp.add_argument("--stepping", default="both", choices=("off", "on", "both"))
+    qp.add_argument("--results", default=None,
+                    help="JSON-lines file: rows are appended and reused (resumable sweep)")
+    dep = targets.add_parser("deploy", help="ONNX inference latency and 50 Hz loop jitter "
+                             "over loopback DDS")
+    dep.add_argument("--seconds", type=positive, default=60.0, help="controller run time [s]")
+    dep.add_argument("--policy", default=None, help="exported policy directory (default: a "
+                     "random stand-in of the same size)")
+    dep.add_argument("--no-realtime", action="store_true",
+                     help="do not ask for SCHED_FIFO (normal scheduling)")
+    dep.add_argument("--domain", type=int, default=None, help="DDS domain id (default random)")
 
 
 _bench.configure = _configure_bench  # type: ignore[attr-defined]
-command("bench", "Time a layer: µs per state and ratios; the last line is JSON.")(_bench)
+command("bench", "Time a layer (dynamics, env, train, qp, deploy); the last line is JSON.")(
+    _bench)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 
 from hybrid_recovery.cli.registry import command
+from hybrid_recovery.cli.validate import non_negative
 
 
 def _demo(args: argparse.Namespace) -> int:
@@ -24,7 +25,7 @@ def _configure_demo(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-video", action="store_true")
     p.add_argument("--balance", action="store_true",
                    help="only print the dynamics layer's balance report of a pushed robot")
-    p.add_argument("--push", type=float, default=150.0, help="--balance: push force [N]")
+    p.add_argument("--push", type=non_negative, default=150.0, help="--balance: push force [N]")
 
 
 _demo.configure = _configure_demo  # type: ignore[attr-defined]

@@ -5,7 +5,9 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from hybrid_recovery.cli.errors import UsageError
 from hybrid_recovery.cli.registry import command
+from hybrid_recovery.cli.validate import check_model, integer, positive
 
 
 def _scenarios(args: argparse.Namespace):
@@ -16,7 +18,7 @@ def _scenarios(args: argparse.Namespace):
         kwargs["duration"] = args.duration
     if args.poses:
         if args.protocol == "pushes":
-            raise SystemExit("eval: --poses restricts the poses and sweep protocols; "
+            raise UsageError("eval: --poses restricts the poses and sweep protocols; "
                              "pushes start from standing")
         for pose in args.poses:
             check_pose(pose)
@@ -36,9 +38,23 @@ def _run(args: argparse.Namespace, controller: str, out: Path) -> list[dict]:
                         header=header, stop_on_success=args.stop_on_success)
 
 
+def _check(args: argparse.Namespace, controllers: list[str]) -> None:
+    """Everything the run will need, before any of it runs or any file is written:
+    the scenarios, the model, the contact preset and every controller."""
+    from hybrid_recovery.evaluation.contact import check_contact_preset
+    from hybrid_recovery.evaluation.controllers import make_controller
+
+    _scenarios(args)
+    check_contact_preset(args.contact)
+    check_model(args.model)
+    for spec in controllers:
+        make_controller(spec)
+
+
 def _eval(args: argparse.Namespace) -> int:
     from hybrid_recovery.evaluation.report import summary_table, write_report
 
+    _check(args, [args.controller])
     out = Path(args.out)
     rows = _run(args, args.controller, out)
     print(summary_table(rows))
@@ -50,6 +66,7 @@ def _eval(args: argparse.Namespace) -> int:
 def _compare(args: argparse.Namespace) -> int:
     from hybrid_recovery.evaluation.report import summary_table, write_report
 
+    _check(args, args.controllers)
     out = Path(args.out)
     results = {}
     for k, spec in enumerate(args.controllers):
@@ -62,14 +79,14 @@ def _compare(args: argparse.Namespace) -> int:
 
 def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--protocol", choices=["poses", "sweep", "pushes"], default="poses")
-    p.add_argument("--trials", type=int, default=100,
+    p.add_argument("--trials", type=integer(1), default=100,
                    help="poses: trials in all; sweep/pushes: trials per cell")
     p.add_argument("--poses", nargs="*", default=None, help="poses, sweep: only these start poses")
-    p.add_argument("--duration", type=float, default=None, help="trial length [s]")
+    p.add_argument("--duration", type=positive, default=None, help="trial length [s]")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--model", default=None, help="another robot MJCF (sim-to-sim)")
     p.add_argument("--contact", default="default", help="contact preset (sim-to-sim)")
-    p.add_argument("--workers", type=int, default=2)
+    p.add_argument("--workers", type=integer(1), default=2)
     p.add_argument("--stop-on-success", action="store_true",
                    help="end each trial once it has succeeded (same success and recovery "
                         "time, shorter trials; end-of-trial figures then describe that time)")

@@ -38,8 +38,8 @@ def _map(args: argparse.Namespace) -> int:
 
 
 def _configure(p: argparse.ArgumentParser) -> None:
-    from hybrid_recovery.envs.initial_states import POSES
     from hybrid_recovery.evaluation.handover_map import HANDOVER_STATES
+    from hybrid_recovery.sim.initial_states import POSES
 
     sub = p.add_subparsers(dest="getup_command", required=True)
     rec = sub.add_parser("record", help="record successful hybrid rises (npz)")

@@ -3,27 +3,26 @@
 from __future__ import annotations
 
 import argparse
-import os
 
 from hybrid_recovery.cli.registry import command
-
-# Offscreen rendering: MuJoCo picks its OpenGL backend when it is first imported, which
-# in the CLI happens after the subcommand modules are loaded; EGL needs no display.
-os.environ.setdefault("MUJOCO_GL", "egl")
+from hybrid_recovery.cli.validate import check_model, finite, non_negative, positive
 
 
 def _play(args: argparse.Namespace) -> int:
     if args.controller is not None:
         return _play_controller(args)
-    from hybrid_recovery.envs.play import onnx_policy, play
+    from hybrid_recovery.evaluation.play import onnx_policy, play
     from hybrid_recovery.policy import resolve_policy
+    from hybrid_recovery.sim.render import renderer_backend
 
+    check_model(args.model)
     policy = None if args.policy in (None, "zero") else onnx_policy(resolve_policy(args.policy))
     frames = play(args.out, pose=args.pose, seconds=args.seconds, policy=policy,
                   push=args.push, push_angle=args.push_angle, push_time=args.push_time,
                   push_duration=args.push_duration, fps=args.fps, seed=args.seed,
                   randomize=args.randomize, model_path=args.model)
     print(f"wrote {args.out} ({frames} frames at {args.fps} fps)")
+    print(f"renderer: {renderer_backend()}")
     return 0
 
 
@@ -45,7 +44,7 @@ def _play_controller(args: argparse.Namespace) -> int:
 
 
 def _configure_play(p: argparse.ArgumentParser) -> None:
-    from hybrid_recovery.envs.initial_states import POSES
+    from hybrid_recovery.sim.initial_states import POSES
 
     p.add_argument("--policy", default="shipped",
                    help="policy.onnx (or its export directory); 'shipped' for the shipped "
@@ -54,13 +53,13 @@ def _configure_play(p: argparse.ArgumentParser) -> None:
                    help="render an evaluation trial of this controller instead (learned | "
                         "qp | model | hybrid[:PATH] | onnx:PATH | zero)")
     p.add_argument("--pose", default="standing", choices=POSES, help="start pose")
-    p.add_argument("--seconds", type=float, default=5.0, help="episode length [s]")
+    p.add_argument("--seconds", type=positive, default=5.0, help="episode length [s]")
     p.add_argument("--out", default="play.mp4", help="video file to write")
-    p.add_argument("--push", type=float, default=0.0, metavar="N",
+    p.add_argument("--push", type=non_negative, default=0.0, metavar="N",
                    help="torso push force [N] at --push-time (0: no push)")
-    p.add_argument("--push-time", type=float, default=1.0, help="[s]")
-    p.add_argument("--push-duration", type=float, default=0.1, help="[s]")
-    p.add_argument("--push-angle", type=float, default=0.0,
+    p.add_argument("--push-time", type=non_negative, default=1.0, help="[s]")
+    p.add_argument("--push-duration", type=positive, default=0.1, help="[s]")
+    p.add_argument("--push-angle", type=finite, default=0.0,
                    help="push direction in the robot's heading frame [deg]: 0 forward, 90 left")
     p.add_argument("--fps", type=int, default=25, choices=(25, 50))
     p.add_argument("--seed", type=int, default=0)

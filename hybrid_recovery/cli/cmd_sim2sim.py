@@ -3,24 +3,23 @@
 from __future__ import annotations
 
 import argparse
-import os
 from pathlib import Path
 
 from hybrid_recovery.cli.registry import command
-
-os.environ.setdefault("MUJOCO_GL", "egl")  # before anything imports mujoco (video)
+from hybrid_recovery.cli.validate import check_model, finite, integer, non_negative, positive
 
 
 def _sim2sim(args: argparse.Namespace) -> int:
     from hybrid_recovery.deploy.sim2sim import Sim2SimConfig, run_sim2sim
     from hybrid_recovery.policy import resolve_policy
 
+    check_model(args.model)
     out = Path(args.out)
     policy = args.policy
     if policy != "zero":
         policy = resolve_policy(policy)
     else:
-        from hybrid_recovery.deploy.stand_in import write_stand_in_policy
+        from hybrid_recovery.training.stand_in import write_stand_in_policy
 
         policy = write_stand_in_policy(out / "stand_in_policy", "zero")
     cfg = Sim2SimConfig(model_path=args.model, pose=args.pose, seconds=args.seconds,
@@ -34,30 +33,32 @@ def _sim2sim(args: argparse.Namespace) -> int:
           f"fault: {summary['fault']}")
     print(f"wrote {out / 'trace.csv'}, {out / 'trace.png'}, {out / 'summary.json'}"
           + (f", {summary['video']}" if "video" in summary else ""))
+    if "renderer" in summary:
+        print(f"renderer: {summary['renderer']}")
     return 0
 
 
 def _configure(p: argparse.ArgumentParser) -> None:
-    from hybrid_recovery.envs.initial_states import POSES
+    from hybrid_recovery.sim.initial_states import POSES
 
     p.add_argument("--policy", default="shipped",
                    help="exported policy directory, 'shipped' (the policy shipped in "
                         "models/policies/h1_2_recovery) or 'zero' for a zero-action stand-in")
     p.add_argument("--model", default=None,
-                   help="H1-2 MJCF (default: the project's model), e.g. "
-                        "../shared/reference/unitree_h1_2/h1_2_handless.xml")
+                   help="H1-2 MJCF (default: the project's model), e.g. the manufacturer's "
+                        "h1_2_handless.xml from unitree_ros")
     p.add_argument("--pose", default="standing", choices=POSES)
-    p.add_argument("--seconds", type=float, default=10.0)
-    p.add_argument("--push", type=float, default=0.0, help="torso push force [N]")
-    p.add_argument("--push-angle", type=float, default=0.0,
+    p.add_argument("--seconds", type=positive, default=10.0)
+    p.add_argument("--push", type=non_negative, default=0.0, help="torso push force [N]")
+    p.add_argument("--push-angle", type=finite, default=0.0,
                    help="push direction in the world x-y plane [deg], 0 = +x")
-    p.add_argument("--push-time", type=float, default=2.0, help="[s]")
-    p.add_argument("--push-duration", type=float, default=0.2, help="[s]")
-    p.add_argument("--delay-ms", type=float, default=0.0, help="actuation delay [ms]")
+    p.add_argument("--push-time", type=non_negative, default=2.0, help="[s]")
+    p.add_argument("--push-duration", type=positive, default=0.2, help="[s]")
+    p.add_argument("--delay-ms", type=non_negative, default=0.0, help="actuation delay [ms]")
     p.add_argument("--startup", action="store_true",
                    help="zero torque → interpolate → hold before the policy, as on hardware")
     p.add_argument("--no-video", action="store_true")
-    p.add_argument("--fps", type=int, default=25)
+    p.add_argument("--fps", type=integer(1), default=25)
     p.add_argument("--out", default="sim2sim_out", help="output directory")
 
 

@@ -5,49 +5,67 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from hybrid_recovery.cli.errors import UsageError
 from hybrid_recovery.cli.registry import command, parse_overrides
+from hybrid_recovery.cli.validate import integer, positive
+
+DEFAULT_VARIANT = "full"
 
 
 def _train(args: argparse.Namespace) -> int:
-    from hybrid_recovery.training import TrainConfig, train
+    from hybrid_recovery.training import train
+    from hybrid_recovery.training.variants import variant_train_config
 
-    cfg = TrainConfig(variant=args.variant, num_envs=args.num_envs, iterations=args.iterations,
-                      seed=args.seed, save_interval=args.save_interval,
-                      num_threads=args.threads, init_std=args.init_std, max_std=args.max_std,
-                      env_overrides=parse_overrides(args.set))
-    cfg.ppo.symmetry = args.symmetry
-    run_dir = Path(args.run_dir or f"runs/{args.variant}")
+    settings = dict(num_envs=args.num_envs, iterations=args.iterations, seed=args.seed,
+                    save_interval=args.save_interval, num_threads=args.threads,
+                    init_std=args.init_std, max_std=args.max_std,
+                    env_overrides=parse_overrides(args.set) or None)
+    variant = args.variant or DEFAULT_VARIANT
+    try:
+        cfg = variant_train_config(variant, **settings)
+    except KeyError as err:
+        raise UsageError(err.args[0]) from None
+    if args.symmetry:
+        cfg.ppo.symmetry = True
+    given = {name for name, value in settings.items() if value is not None}
+    given |= {"variant"} if args.variant else set()
+    given |= {"ppo"} if args.symmetry else set()
+    run_dir = Path(args.run_dir or f"runs/{variant}")
     train(run_dir, cfg, resume=args.resume, amend=parse_overrides(args.amend),
-          follow=args.follow)
+          force=args.force, given=given)
     return 0
 
 
 def _configure_train(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--variant", default="full",
-                   help="full | reduced | no_privileged | no_capture_point | no_curriculum")
-    p.add_argument("--num-envs", type=int, default=1024)
-    p.add_argument("--iterations", type=int, default=50_000,
-                   help="total PPO iterations of the run (the paper: 50,000)")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--save-interval", type=int, default=50)
-    p.add_argument("--threads", type=int, default=2)
+    p.add_argument("--variant", default=None,
+                   help="recovery (the shipped policy's recipe) | full (the paper's, the "
+                        "default) | reduced | no_privileged | no_capture_point | no_curriculum")
+    p.add_argument("--num-envs", type=integer(1), default=None, help="default 1024")
+    p.add_argument("--iterations", type=integer(1), default=None,
+                   help="total PPO iterations of the run (default: the paper's 50,000; with "
+                        "--resume the run's own)")
+    p.add_argument("--seed", type=int, default=None, help="default 0")
+    p.add_argument("--save-interval", type=integer(1), default=None,
+                   help="default 50 (recovery: 25)")
+    p.add_argument("--threads", type=integer(1), default=None, help="default 2")
     p.add_argument("--run-dir", default=None, help="default: runs/<variant>")
     p.add_argument("--resume", action="store_true",
                    help="continue the run in --run-dir with its saved settings")
+    p.add_argument("--force", action="store_true",
+                   help="start over in a --run-dir that holds a run (its checkpoints, "
+                        "settings and logs are removed)")
     p.add_argument("--symmetry", action="store_true", help="left/right mirror augmentation")
-    p.add_argument("--init-std", type=float, default=1.0,
-                   help="initial action noise std (the paper: 1.0)")
+    p.add_argument("--init-std", type=positive, default=None,
+                   help="initial action noise std (the paper: 1.0; recovery: 0.5)")
     p.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
                    help="EnvConfig overrides, e.g. rewards.w_cp=0 curriculum.window=256")
     p.add_argument("--amend", nargs="*", default=[], metavar="KEY=VALUE",
                    help="with --resume: change the run's saved settings from now on, e.g. "
                         "ppo.entropy_coef=0.001 train.max_std=0.4 rewards.w_cp=0 (kept in "
                         "config.json)")
-    p.add_argument("--follow", default=None, metavar="RUN",
-                   help="replay the amendments of another run (its directory or config.json) "
-                        "at the same iterations, e.g. an ablation of a run with a history")
-    p.add_argument("--max-std", type=float, default=None,
-                   help="upper bound of the action noise std (default: unbounded)")
+    p.add_argument("--max-std", type=positive, default=None,
+                   help="upper bound of the action noise std (default: unbounded; "
+                        "recovery: 0.6)")
 
 
 _train.configure = _configure_train  # type: ignore[attr-defined]

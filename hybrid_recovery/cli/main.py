@@ -8,9 +8,19 @@ import pkgutil
 import sys
 from collections.abc import Sequence
 
+from hybrid_recovery.cli.errors import EXIT_ERROR, report_errors
 from hybrid_recovery.cli.registry import COMMANDS, command, parse_overrides
 
 __all__ = ["COMMANDS", "command", "main", "parse_overrides"]
+
+_DEBUG_HELP = "print the traceback of an error (default: one line, 'error: ...')"
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with the CLI's one error format: ``error: <message>``, exit 2."""
+
+    def error(self, message: str):  # type: ignore[override]
+        self.exit(EXIT_ERROR, f"error: {message}\n")
 
 
 def _register_all() -> None:
@@ -23,17 +33,21 @@ def _register_all() -> None:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
+    """Runs one subcommand; returns 0, 1 (a controller fault), 2 (an error, one line
+    ``error: <message>`` on stderr) or 130 (Ctrl-C)."""
     _register_all()
 
-    parser = argparse.ArgumentParser(prog="hybrid-recovery", description=__doc__)
+    parser = _Parser(prog="hybrid-recovery", description=__doc__)
+    parser.add_argument("--debug", action="store_true", help=_DEBUG_HELP)
     sub = parser.add_subparsers(dest="command", required=True)
     for name, (help_text, fn) in COMMANDS.items():
         p = sub.add_parser(name, help=help_text, description=help_text)
+        p.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
+                       help=_DEBUG_HELP)
         fn.configure(p)  # type: ignore[attr-defined]
         p.set_defaults(_run=fn)
     args = parser.parse_args(argv)
-    result = args._run(args)
-    return int(result or 0)
+    return report_errors(lambda: int(args._run(args) or 0), args.debug)
 
 
 if __name__ == "__main__":

@@ -6,6 +6,8 @@ import argparse
 import json
 from collections.abc import Callable, Sequence
 
+from hybrid_recovery.cli.errors import UsageError
+
 COMMANDS: dict[str, tuple[str, Callable[[argparse.ArgumentParser], None]]] = {}
 
 
@@ -29,13 +31,13 @@ def parse_overrides(items: Sequence[str]) -> dict:
     out = {}
     for item in items:
         if "=" not in item:
-            raise SystemExit(f"override '{item}' must look like key=value, e.g. rewards.w_cp=0")
+            raise UsageError(f"override '{item}' must look like key=value, e.g. rewards.w_cp=0")
         key, raw = item.split("=", 1)
         try:
             out[key] = json.loads(raw)
         except json.JSONDecodeError as err:
             if raw.lstrip()[:1] in ("[", "{"):
-                raise SystemExit(f"override '{item}': the value is not valid JSON ({err.msg}); "
+                raise UsageError(f"override '{item}': the value is not valid JSON ({err.msg}); "
                                  "quote strings in lists, e.g. "
                                  "assist.poses='[\"supine\", \"prone\"]'") from None
             out[key] = raw

@@ -15,7 +15,6 @@ from hybrid_recovery.control.config import (
     default_config,
 )
 from hybrid_recovery.control.diagnostics import Capturability, Event, Strategy, TickDiagnostics
-from hybrid_recovery.control.eval_adapter import eval_controller
 from hybrid_recovery.control.policy_controller import PolicyController
 from hybrid_recovery.control.rollout import Push, SensorNoise, run_episode, standing_data
 from hybrid_recovery.control.supervisor import HybridSupervisor
@@ -40,7 +39,6 @@ __all__ = [
     "SupervisorConfig",
     "TickDiagnostics",
     "default_config",
-    "eval_controller",
     "load_torque_model",
     "run_episode",
     "standing_data",

@@ -29,7 +29,7 @@ import numpy as np
 from hybrid_recovery.control.config import BalanceConfig, default_config
 from hybrid_recovery.control.dcm import DcmCommand, dcm_command, hip_reach
 from hybrid_recovery.control.diagnostics import Capturability, Event, Strategy, TickDiagnostics
-from hybrid_recovery.control.polygon import convex_hull, signed_distance
+from hybrid_recovery.control.polygon import convex_hull, signed_distance_scalar
 from hybrid_recovery.control.robot_state import RobotState, StateReader
 from hybrid_recovery.control.stepping import (
     StepPlan,
@@ -187,7 +187,7 @@ class BalanceController:
         self._log_status(solution, t)
         strategy = self._strategy(cmd)
         self.max_strategy = max(self.max_strategy, strategy)
-        margin = -float(signed_distance(cmd.capture_point, support))
+        margin = -float(signed_distance_scalar(cmd.capture_point, support))
         self.diagnostics = TickDiagnostics(
             time=t, applicable=True, reason="", strategy=strategy,
             capturability=self._capturability(state, cmd, support, margin, t),
@@ -214,7 +214,7 @@ class BalanceController:
         xi_ref = np.mean([f.position[:2] for f in state.feet], axis=0)
         cmd = dcm_command(state.com, state.com_vel, state.angular_momentum, xi_ref, xi_ref,
                           support, self._height_ref, state.mass, self.config.dcm)
-        margin = -float(signed_distance(cmd.capture_point, support))
+        margin = -float(signed_distance_scalar(cmd.capture_point, support))
         return TickDiagnostics(t, True, "", self._strategy(cmd),
                                self._capturability(state, cmd, support, margin, t, planning=True),
                                DOUBLE_SUPPORT, cmd.capture_point, cmd.cop, cmd.cmp, margin,
@@ -287,12 +287,12 @@ class BalanceController:
             return None
         if t - self._t_touchdown < cfg.min_double_support and self._step_count > 0:
             return None
-        outside = float(signed_distance(cmd.capture_point, support))
+        outside = float(signed_distance_scalar(cmd.capture_point, support))
         reach = self._hip_reach(cmd, state.mass)
         if outside <= cfg.hip_margin_scale * reach:
             return None
         ahead = cmd.cmp + (cmd.capture_point - cmd.cmp) * np.exp(cmd.omega * cfg.lookahead)
-        if outside <= reach and float(signed_distance(ahead, support)) < outside:
+        if outside <= reach and float(signed_distance_scalar(ahead, support)) < outside:
             return None  # ξ is coming back: the hip strategy is working
         xy, corners, rots = self._feet_arrays(state)
         plan = plan_step(cmd.capture_point, cmd.omega, xy, corners, rots, cfg,

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from hybrid_recovery.robot.constants import UPRIGHT_COM_HEIGHT
+
 
 @dataclass
 class QpConfig:
@@ -158,7 +160,7 @@ class SupervisorConfig:
     """ξ at least this far inside the feet polygon to go back to the QP [m]."""
     to_qp_max_com_speed: float = 0.15
     """CoM speed below this to go back to the QP [m/s]."""
-    to_qp_min_com_height: float = 0.85
+    to_qp_min_com_height: float = UPRIGHT_COM_HEIGHT
     """CoM height above this to go back to the QP [m]."""
     blend_time: float = 0.2
     """Hand-over time: joint targets (QP → policy) or torques (policy → QP) [s]."""

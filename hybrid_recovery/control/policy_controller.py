@@ -1,13 +1,12 @@
 """The learned policy as a torque controller: 50 Hz actions, PD law every physics step.
 
-Every ``policy_dt`` the observation o_t = ``actor_observation(ω_IMU, q_IMU, q, q̇,
-a_{t−1})`` (the shared builder, on :func:`read_proprioception`) goes through the policy;
-the joint targets are q_ref = q* + 0.3 clip(a_t, ±10) (:func:`joint_targets`), clamped
-to the joint ranges scaled about their middle by the policy's ``target_range_factor``
-(as in training and on the robot), and every physics step τ = clip(K_P (q_ref − q) − K_D q̇, ±τ_max)
-with ``constants.KP``/``KD`` — the law of the position servos of
-:func:`hybrid_recovery.robot.mjcf.load_mjmodel`, written out so that the policy runs on
-the torque model shared with the QP controller.
+Every ``policy_dt`` :func:`hybrid_recovery.policy.policy_step` forms the observation o_t
+(the shared builder, on :func:`read_proprioception`), runs the policy and the joint
+targets q_ref = q* + 0.3 clip(a_t, ±10), clamped to the joint ranges scaled about their
+middle by the policy's ``target_range_factor`` (as in training and on the robot); every
+physics step τ = clip(K_P (q_ref − q) − K_D q̇, ±τ_max) with ``constants.KP``/``KD`` —
+the law of the position servos of :func:`hybrid_recovery.robot.mjcf.load_mjmodel`,
+written out so that the policy runs on the torque model shared with the QP controller.
 """
 
 from __future__ import annotations
@@ -17,11 +16,11 @@ from collections.abc import Callable
 import mujoco
 import numpy as np
 
-from hybrid_recovery.deploy.limits import SafetyLimits
-from hybrid_recovery.observation import actor_observation
 from hybrid_recovery.observation.mujoco_source import ProprioceptionMap, read_proprioception
-from hybrid_recovery.policy.action import TARGET_RANGE_FACTOR, clip_action, joint_targets
+from hybrid_recovery.policy.step import policy_step
 from hybrid_recovery.robot import constants
+from hybrid_recovery.robot.action import TARGET_RANGE_FACTOR
+from hybrid_recovery.robot.limits import SafetyLimits
 
 
 def pd_torque(q_ref: np.ndarray, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
@@ -76,12 +75,9 @@ class PolicyController:
             self.reset(model, data)
             assert self._where is not None
         if data.time >= self._next_time - 1e-9:
-            gyro, quat, q, qd = read_proprioception(model, data, self._where)
-            obs = actor_observation(gyro[None], quat[None], q[None], qd[None],
-                                    self.last_action[None])[0]
-            action = self.policy(obs)
-            self.q_ref = joint_targets(action, self.action_scale, self._bounds)
-            self.last_action = clip_action(action)
+            step = policy_step(self.policy, *read_proprioception(model, data, self._where),
+                               self.last_action, self.action_scale, self._bounds)
+            self.q_ref, self.last_action = step.q_ref, step.last_action
             self._next_time = data.time + self.policy_dt
         return self.q_ref
 

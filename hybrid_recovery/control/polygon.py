@@ -41,7 +41,7 @@ def _segment(px: float, py: float, ax: float, ay: float, bx: float, by: float):
     return cx, cy, (px - cx) ** 2 + (py - cy) ** 2
 
 
-def signed_distance(point: np.ndarray, polygon: np.ndarray) -> float:
+def signed_distance_scalar(point: np.ndarray, polygon: np.ndarray) -> float:
     """d(p, C): −(distance to the nearest edge) inside, distance to C outside [m]."""
     px, py = float(point[0]), float(point[1])
     poly = np.asarray(polygon, dtype=float).tolist()
@@ -64,7 +64,7 @@ def closest_point(point: np.ndarray, polygon: np.ndarray) -> np.ndarray:
     """argmin_{x ∈ C} ‖x − p‖ (p itself when p ∈ C), shape (2,) [m]."""
     p = np.asarray(point, dtype=float)
     poly = np.asarray(polygon, dtype=float)
-    if len(poly) >= 3 and signed_distance(p, poly) <= 0.0:
+    if len(poly) >= 3 and signed_distance_scalar(p, poly) <= 0.0:
         return p.copy()
     px, py = float(p[0]), float(p[1])
     verts = poly.tolist()

@@ -20,8 +20,6 @@ import numpy as np
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.mjcf import default_qpos
 
-STANDING_MIN_COM_HEIGHT = 0.85
-"""Success: CoM height above this [m]."""
 STANDING_MAX_TILT_DEG = 72.0
 """Success: torso tilt from vertical below this [deg]."""
 
@@ -111,7 +109,7 @@ def standing_state(model: mujoco.MjModel, data: mujoco.MjData) -> tuple[bool, fl
         model.geom_bodyid[g] not in feet and model.geom_bodyid[g] != 0
         for c in data.contact[: data.ncon] for g in c.geom
     )
-    ok = height > STANDING_MIN_COM_HEIGHT and tilt < STANDING_MAX_TILT_DEG and not other
+    ok = height > constants.UPRIGHT_COM_HEIGHT and tilt < STANDING_MAX_TILT_DEG and not other
     return ok, height, tilt, other
 
 

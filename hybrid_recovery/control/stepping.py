@@ -24,7 +24,7 @@ from hybrid_recovery.control.polygon import (
     closest_point,
     convex_hull,
     shrink,
-    signed_distance,
+    signed_distance_scalar,
 )
 from hybrid_recovery.dynamics.capturability import n_step_capture_margin, one_step_capture_region
 
@@ -184,7 +184,8 @@ def touchdown_margin(plan: StepPlan, feet_xy: np.ndarray, stance_corners: np.nda
     """
     stance = np.asarray(stance_corners)[:, :2]
     moved = stance - feet_xy[1 - plan.swing] + plan.target
-    return -signed_distance(plan.capture_at_touchdown, convex_hull(np.vstack([stance, moved])))
+    hull = convex_hull(np.vstack([stance, moved]))
+    return -signed_distance_scalar(plan.capture_at_touchdown, hull)
 
 
 def step_capturability(plan: StepPlan, feet_xy: np.ndarray, stance_corners: np.ndarray,

@@ -111,6 +111,7 @@ def _table(results: dict[str, list[dict]]) -> str:
 def _video(spec: str, out: Path) -> None:
     try:
         from hybrid_recovery.evaluation.video import render_trial
+        from hybrid_recovery.sim.render import renderer_backend
     except ImportError as err:
         print(f"note: no video ({err})")
         return
@@ -118,6 +119,6 @@ def _video(spec: str, out: Path) -> None:
                                else "push 200 N forward"]
     try:
         path = render_trial(make_controller(spec), scenario, out / "demo.mp4", seconds=6.0)
-        print(f"video: {path}")
-    except Exception as err:  # rendering needs an OpenGL context (MUJOCO_GL=egl)
+        print(f"video: {path} (renderer: {renderer_backend()})")
+    except Exception as err:  # keep the report; say why there is no video
         print(f"note: no video ({type(err).__name__}: {err})")

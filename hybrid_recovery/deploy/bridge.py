@@ -22,22 +22,27 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from hybrid_recovery.deploy.fast_dds import FastLink
-from hybrid_recovery.deploy.limits import SafetyLimits
 from hybrid_recovery.deploy.policy_runner import PolicyRunner
-from hybrid_recovery.deploy.robot_io import RobotState
+from hybrid_recovery.deploy.robot_io import LowStateReading
 from hybrid_recovery.deploy.state_machine import Phase, SafetyConfig, SafetyStateMachine
 from hybrid_recovery.deploy.timing import LoopStats, PeriodicClock, try_realtime
 from hybrid_recovery.deploy.wire import decode_low_state, encode_low_cmd
+from hybrid_recovery.robot.limits import SafetyLimits
 
 if TYPE_CHECKING:
     from hybrid_recovery.deploy.sim_robot import SimRobot, SimRobotConfig
 
 NO_STATE_HINT = (
     "no LowState_ on rt/lowstate within {timeout} s (domain {domain}, interface {iface}). "
-    "Is the robot (or deploy/sim_robot.py) running on this domain and interface? On the "
+    "Is the robot (or hybrid-recovery sim-robot) running on this domain and interface? On the "
     "real H1-2: its stack uses cyclonedds 0.10.x, which does not talk to cyclonedds 11 "
     "(see deploy/README.md)."
 )
+
+
+class ControllerError(RuntimeError):
+    """The controller's loop failed; damping was sent first. The message names the cause
+    (also kept as ``__cause__``)."""
 
 
 @dataclass
@@ -63,11 +68,15 @@ def run_controller(policy_dir: str | Path, domain_id: int = 0, interface: str = 
                    realtime: bool = False) -> ControllerReport:
     """Runs the controller until ``seconds`` after the first state, a fault, or Ctrl-C.
 
-    Then it sends damping commands for ``damping_s`` and returns.
+    Then it sends damping commands for ``damping_s`` and returns. An exception inside
+    the loop (a malformed message, an inference error, a bug) is a fault too: damping
+    commands are sent for ``damping_s`` first, then :class:`ControllerError` is raised
+    with the cause.
 
     Raises:
         PolicyMismatchError: the policy does not match the robot (checked first).
         TimeoutError: no state arrived within ``wait_timeout_s``.
+        ControllerError: the loop failed (after damping was sent).
     """
     sm = SafetyStateMachine(safety or SafetyConfig(SafetyLimits.from_robot()))
     runner = PolicyRunner(policy_dir, target_range_factor=sm.config.q_ref_range_factor)
@@ -78,7 +87,7 @@ def run_controller(policy_dir: str | Path, domain_id: int = 0, interface: str = 
                                                 iface=interface))
     clock = PeriodicClock(sm.config.period_s)
     stats = LoopStats(sm.config.period_s)
-    state: RobotState | None = None
+    state: LowStateReading | None = None
     seen, bad, ticks, sent = 0, 0, [], 0
     t_start, t_damping = clock.t0, None
     try:
@@ -120,12 +129,37 @@ def run_controller(policy_dir: str | Path, domain_id: int = 0, interface: str = 
             cmd = sm.tick(now, state)
             if cmd is not None and state is not None:
                 link.write(encode_low_cmd(cmd, state.mode_machine))
+    except Exception as err:
+        cause = f"{type(err).__name__}: {err}"
+        damped = _send_damping(link, sm, state, cause, damping_s)
+        raise ControllerError(
+            f"the control loop failed {time.monotonic() - t_start:.2f} s after the first "
+            f"state ({cause}); {damped} damping commands sent") from err
     return ControllerReport(
         scheduling=scheduling,
         transitions=[(t - t_start, p.value, why) for t, p, why in sm.transitions],
         fault=None if sm.fault is None else sm.fault.value, fault_detail=sm.fault_detail,
         states_received=link.count, bad_crc_states=bad, ticks=ticks, commands_sent=sent,
         seconds=time.monotonic() - t_start, stats=stats.summary())
+
+
+def _send_damping(link: FastLink, sm: SafetyStateMachine, state: LowStateReading | None,
+                  cause: str, damping_s: float) -> int:
+    """Damping (kp = 0) for ``damping_s`` after a failure of the loop; returns how many
+    commands went out. Nothing is sent before the first state (nothing was sent then)."""
+    if state is None:
+        return 0
+    cmd = sm.fail_safe(time.monotonic(), cause)
+    wire = encode_low_cmd(cmd, state.mode_machine)
+    sent = 0
+    for _ in range(max(1, int(round(damping_s / sm.config.period_s)))):
+        try:
+            link.write(wire)
+        except Exception:  # noqa: BLE001 - the link itself failed: nothing more to send
+            break
+        sent += 1
+        time.sleep(sm.config.period_s)
+    return sent
 
 
 @dataclass

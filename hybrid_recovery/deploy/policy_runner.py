@@ -1,12 +1,12 @@
 """The ONNX policy at 50 Hz: the training observation in, joint targets out.
 
 The observation is built by :func:`hybrid_recovery.observation.actor_observation`, the
-builder the environment uses (STYLE §4): torso IMU angular velocity and orientation as
+one builder the environment uses too: torso IMU angular velocity and orientation as
 ``LowState_.imu_state`` gives them, q − q*, q̇ and the last action. The network runs in
 :class:`hybrid_recovery.policy.OnnxPolicy`; as in
 :class:`~hybrid_recovery.envs.RecoveryEnv`, the action is clipped to ±``ACTION_CLIP``, the
 clipped action is the next observation's ``last_action``, and the joint targets are
-q_ref = q* + scale · a (:func:`hybrid_recovery.policy.joint_targets`, ``policy.json``'s
+q_ref = q* + scale · a (:func:`hybrid_recovery.policy.policy_step`, ``policy.json``'s
 action scale). The PD law τ = kp (q_ref − q) − kd q̇ runs in the motor drivers (or
 MuJoCo's position actuators). No torch is imported.
 """
@@ -17,17 +17,11 @@ from pathlib import Path
 
 import numpy as np
 
-from hybrid_recovery.deploy.robot_io import RobotState
+from hybrid_recovery.deploy.robot_io import LowStateReading
 from hybrid_recovery.deploy.state_machine import PolicyOutput
-from hybrid_recovery.observation import actor_observation
-from hybrid_recovery.policy import (
-    ACTION_CLIP,
-    TARGET_RANGE_FACTOR,
-    OnnxPolicy,
-    clip_action,
-    joint_targets,
-)
+from hybrid_recovery.policy import OnnxPolicy, policy_step
 from hybrid_recovery.robot import constants
+from hybrid_recovery.robot.action import ACTION_CLIP, TARGET_RANGE_FACTOR
 
 __all__ = ["ACTION_CLIP", "PolicyMismatchError", "PolicyRunner"]
 
@@ -83,18 +77,9 @@ class PolicyRunner:
         """Start of an episode: a_{t−1} = 0."""
         self.last_action = np.zeros(constants.NUM_JOINTS)
 
-    def observation(self, state: RobotState) -> np.ndarray:
-        """o_t from a robot state and the last action, shape (87,), float32."""
-        return actor_observation(state.gyro[None], state.quat[None], state.q[None],
-                                 state.dq[None], self.last_action[None])[0]
-
-    def infer(self, obs: np.ndarray) -> np.ndarray:
-        """The network's action for o_t, shape (27,) (no clipping)."""
-        return self.policy(obs)
-
-    def step(self, state: RobotState) -> PolicyOutput:
+    def step(self, state: LowStateReading) -> PolicyOutput:
         """One control step: o_t, a_t, and q_ref = q* + scale · clip(a_t); remembers a_t."""
-        obs = self.observation(state)
-        action = self.infer(obs)
-        self.last_action = clip_action(action)
-        return PolicyOutput(obs=obs, action=action, q_ref=joint_targets(action, self.action_scale))
+        step = policy_step(self.policy, state.gyro, state.quat, state.q, state.dq,
+                           self.last_action, self.action_scale)
+        self.last_action = step.last_action
+        return PolicyOutput(obs=step.obs, action=step.action, q_ref=step.q_ref)

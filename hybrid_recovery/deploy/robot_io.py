@@ -35,7 +35,7 @@ assert len(MOTOR_INDEX) <= NUM_MOTORS and len(set(MOTOR_INDEX.tolist())) == len(
 
 
 @dataclass(frozen=True)
-class RobotState:
+class LowStateReading:
     """One ``LowState_`` in joint order.
 
     Attributes:
@@ -94,10 +94,10 @@ class JointCommand:
 
 
 def robot_state_from_low_state(msg: LowState_, t_receive: float = 0.0,
-                               crc_ok: bool = True) -> RobotState:
-    """A :class:`RobotState` from a ``LowState_`` object (the slow, object-based path)."""
+                               crc_ok: bool = True) -> LowStateReading:
+    """A :class:`LowStateReading` from a ``LowState_`` object (the slow, object-based path)."""
     motors = [msg.motor_state[i] for i in MOTOR_INDEX]
-    return RobotState(
+    return LowStateReading(
         tick=int(msg.tick), quat=np.array(msg.imu_state.quaternion, dtype=float),
         gyro=np.array(msg.imu_state.gyroscope, dtype=float),
         q=np.array([m.q for m in motors]), dq=np.array([m.dq for m in motors]),

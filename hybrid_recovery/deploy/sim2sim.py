@@ -5,12 +5,12 @@ training observation builder), :class:`~.state_machine.SafetyStateMachine` (faul
 damping) and the motor-driver PD of :class:`~.sim_robot.SimRobot` (MuJoCo position
 actuators with constants.KP/KD from the command). Any H1-2 MJCF loads: the project's own
 (default) or the manufacturer's mesh model. Start poses are settled as in training
-(:func:`hybrid_recovery.envs.initial_states.settle_pool`); a torso push and an actuation
+(:func:`hybrid_recovery.sim.initial_states.settle_pool`); a torso push and an actuation
 delay can be added. Writes ``trace.csv``, ``trace.png``, ``summary.json`` and, with a
 renderer, ``video.mp4``.
 
-Video needs an OpenGL backend: set ``MUJOCO_GL=egl`` (or ``osmesa``) before mujoco is
-imported (the ``sim2sim`` command does).
+The video is drawn with OpenGL where a context can be made, else in software
+(:class:`hybrid_recovery.sim.render.BalanceRenderer`); ``summary.json`` names which.
 """
 
 from __future__ import annotations
@@ -24,17 +24,15 @@ from pathlib import Path
 import numpy as np
 
 from hybrid_recovery.deploy.balance_trace import BalanceTrace
-from hybrid_recovery.deploy.limits import SafetyLimits
 from hybrid_recovery.deploy.policy_runner import PolicyRunner
 from hybrid_recovery.deploy.robot_io import JointCommand
 from hybrid_recovery.deploy.sim_robot import SimRobot, SimRobotConfig, implicit_pd_model
 from hybrid_recovery.deploy.state_machine import Phase, SafetyConfig, SafetyStateMachine
 from hybrid_recovery.dynamics import RobotModel
-from hybrid_recovery.envs.initial_states import POSES, settle_pool
 from hybrid_recovery.observation import projected_gravity
-
-UPRIGHT_COM_HEIGHT = 0.85
-"""CoM height counted as upright [m] (the env's ``upright_height``)."""
+from hybrid_recovery.robot.constants import UPRIGHT_COM_HEIGHT
+from hybrid_recovery.robot.limits import SafetyLimits
+from hybrid_recovery.sim.initial_states import POSES, settle_pool
 
 
 @dataclass
@@ -126,6 +124,8 @@ def run_sim2sim(policy_dir: str | Path, out_dir: str | Path,
     trace.plot(out / "trace.png", title)
     if video is not None:
         summary["video"] = video.write(out / "video.mp4")
+        if video.renderer is not None:
+            summary["renderer"] = video.renderer.backend_name
     (out / "summary.json").write_text(json.dumps(summary, indent=2))
     return summary
 
@@ -145,11 +145,11 @@ def _summary(trace: BalanceTrace, sm: SafetyStateMachine, cfg: Sim2SimConfig) ->
 
 
 class _Video:
-    """Frames of :class:`hybrid_recovery.envs.render.BalanceRenderer` (robot, CoM, capture
+    """Frames of :class:`hybrid_recovery.sim.render.BalanceRenderer` (robot, CoM, capture
     point, support polygons, push arrow) at ``fps``, written with imageio."""
 
     def __init__(self, robot: SimRobot, cfg: Sim2SimConfig) -> None:
-        from hybrid_recovery.envs.render import BalanceRenderer
+        from hybrid_recovery.sim.render import BalanceRenderer
 
         self.robot, self.dt = robot, 1.0 / cfg.fps
         self.frames: list = []
@@ -158,11 +158,11 @@ class _Video:
         try:
             self.renderer: BalanceRenderer | None = BalanceRenderer(
                 cfg.model_path, cfg.width, cfg.height)
-        except RuntimeError as err:  # no OpenGL backend: keep the run, say why
+        except (RuntimeError, ValueError) as err:  # keep the run, say why
             self.renderer, self.error = None, f"no video: {err}"
 
     def maybe_capture(self) -> None:
-        from hybrid_recovery.envs.render import balance_overlay
+        from hybrid_recovery.sim.render import balance_overlay
 
         if self.renderer is None or self.robot.time + 1e-9 < self.next_t:
             return

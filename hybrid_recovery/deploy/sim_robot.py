@@ -24,11 +24,11 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from hybrid_recovery.deploy.robot_io import JointCommand, RobotState
+from hybrid_recovery.deploy.robot_io import JointCommand, LowStateReading
 from hybrid_recovery.deploy.wire import decode_low_cmd, encode_low_state
-from hybrid_recovery.envs.scene import SensorLayout, build_scene
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.mjcf import default_qpos
+from hybrid_recovery.sim.scene import SensorLayout, build_scene
 
 
 @dataclass
@@ -163,11 +163,11 @@ class SimRobot:
         d.xfrc_applied[self.pelvis] = np.concatenate([force, torque])
 
     # ------------------------------------------------------------------ sensing
-    def state(self, t_receive: float | None = None) -> RobotState:
-        """The current :class:`RobotState` (sensors as the robot reports them)."""
+    def state(self, t_receive: float | None = None) -> LowStateReading:
+        """The current :class:`LowStateReading` (sensors as the robot reports them)."""
         d, lay = self.data, self.layout
         mujoco.mj_forward(self.model, d)  # sensors and torques of the current state
-        return RobotState(
+        return LowStateReading(
             tick=self.tick, quat=d.sensordata[lay.quat].copy(),
             gyro=d.sensordata[lay.gyro].copy(), q=d.qpos[self.qadr].copy(),
             dq=d.qvel[self.dadr].copy(), tau_est=d.actuator_force.copy(),

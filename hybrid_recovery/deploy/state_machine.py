@@ -1,6 +1,6 @@
 """The deployment safety state machine: pure logic, no I/O, no clock of its own.
 
-Phases, in order (STYLE §12)::
+Phases, in order::
 
     WAIT_STATE ─first valid state─▶ ZERO_TORQUE ─zero_torque_s─▶ INTERPOLATE ─interpolate_s─▶
     HOLD ─hold_s (+ start)─▶ POLICY            any phase ─fault or stop─▶ DAMPING (final)
@@ -15,10 +15,15 @@ Phases, in order (STYLE §12)::
 * DAMPING: kp = 0, kd = ``damping_kd``; entered on :meth:`~SafetyStateMachine.request_stop`
   (exit) or on a fault, and never left.
 
-Faults (checked every tick after WAIT_STATE): a non-finite state, observation or action; a
-measured joint position beyond its range ± ``joint_margin``; a measured torque beyond
-τ_max (1 + ``torque_tolerance``); no new state (new tick, valid CRC) for
-``stale_timeout_s``; a tick later than ``period_s + overrun_s`` after the previous one.
+Faults (checked every tick after WAIT_STATE): a non-finite state, observation or action; an
+IMU quaternion whose norm is not 1 ± ``quat_tolerance``; a measured joint position beyond
+its range ± ``joint_margin``; a measured torque beyond τ_max (1 + ``torque_tolerance``); no
+new state (newer tick, valid CRC) for ``stale_timeout_s``; a tick later than
+``period_s + overrun_s`` after the previous one; an exception in the controller's loop
+(:meth:`SafetyStateMachine.fail_safe`).
+
+A state is new when its tick is ahead of the last one's modulo 2³² (the robot's u32
+counter wraps): an older or repeated tick is ignored.
 Gains are clamped to [0, constants.KP] and [0, constants.KD] in every phase.
 """
 
@@ -29,12 +34,19 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from hybrid_recovery.deploy.limits import SafetyLimits
-from hybrid_recovery.deploy.robot_io import JointCommand, RobotState
-from hybrid_recovery.policy.action import TARGET_RANGE_FACTOR
+from hybrid_recovery.deploy.robot_io import JointCommand, LowStateReading
 from hybrid_recovery.robot import constants
+from hybrid_recovery.robot.action import TARGET_RANGE_FACTOR
+from hybrid_recovery.robot.limits import SafetyLimits
 
 _EPS = 1e-6  # [s]: a phase of 0.5 s ends on the tick at 0.5 s despite float rounding
+_TICK_MOD = 2**32
+"""``LowState_.tick`` is a u32 counter that wraps."""
+
+
+def tick_is_newer(tick: int, last: int) -> bool:
+    """Whether ``tick`` is ahead of ``last`` modulo 2³² (by less than half the range)."""
+    return 0 < (tick - last) % _TICK_MOD < _TICK_MOD // 2
 
 
 class Phase(enum.Enum):
@@ -58,6 +70,8 @@ class Fault(enum.Enum):
     TORQUE_LIMIT = "torque_limit"
     STALE_STATE = "stale_state"
     OVERRUN = "overrun"
+    IMU_QUATERNION = "imu_quaternion"
+    CONTROLLER_ERROR = "controller_error"
 
 
 @dataclass(frozen=True)
@@ -97,6 +111,10 @@ class SafetyConfig:
     """Measured q may exceed the joint range by this much before it is a fault [rad]."""
     torque_tolerance: float = 0.1
     """Measured |τ| may exceed τ_max by this fraction before it is a fault."""
+    quat_tolerance: float = 0.01
+    """The IMU quaternion's norm may differ from 1 by this much before it is a fault
+    (a float32 unit quaternion is within 1e-6; (2, 0, 0, 0) would scale the projected
+    gravity the policy sees to a quarter)."""
     q_ref_range_factor: float = TARGET_RANGE_FACTOR
     """Targets are clamped to the joint ranges scaled about their middle by this (as at
     the end of training's curriculum, ``CurriculumConfig.position_limit_final``)."""
@@ -125,7 +143,7 @@ class SafetyStateMachine:
         self._kp, self._kd = c.limits.clamp_gains(c.kp, c.kd)
         self._damping_kd = c.limits.clamp_gains(c.kp, c.damping_kd)[1]
         self._q_lo, self._q_hi = c.limits.q_ref_bounds(c.q_ref_range_factor)
-        self._state: RobotState | None = None
+        self._state: LowStateReading | None = None
         self._t_new_state = 0.0
         self._t_phase = 0.0
         self._last_tick: float | None = None
@@ -144,25 +162,25 @@ class SafetyStateMachine:
         self._start_requested = True
 
     @property
-    def state(self) -> RobotState | None:
+    def state(self) -> LowStateReading | None:
         """The newest valid state seen."""
         return self._state
 
     # ------------------------------------------------------------------ the tick
-    def tick(self, now: float, state: RobotState | None,
+    def tick(self, now: float, state: LowStateReading | None,
              policy: PolicyOutput | None = None) -> JointCommand | None:
         """Advances the machine and returns the command to send (None: send nothing).
 
         Args:
             now: Current time [s], the clock of ``state.t_receive``.
-            state: The newest received state (or None); states with a bad CRC or an old
-                tick are ignored.
+            state: The newest received state (or None); states with a bad CRC or a tick
+                not ahead of the last one (modulo 2³²) are ignored.
             policy: The policy's output for this tick; only used in POLICY. Evaluate the
                 policy only when :attr:`phase` is POLICY before the call.
         """
         previous, self._last_tick = self._last_tick, now
         if state is not None and state.crc_ok and (
-                self._state is None or state.tick != self._state.tick):
+                self._state is None or tick_is_newer(state.tick, self._state.tick)):
             self._state, self._t_new_state = state, state.t_receive
         if self.phase is Phase.DAMPING:
             return self._damping()
@@ -182,6 +200,14 @@ class SafetyStateMachine:
             return self._fail(now, *found)
         self._advance(now)
         return self._command(now, policy)
+
+    def fail_safe(self, now: float, detail: str) -> JointCommand:
+        """Goes to DAMPING at once with :attr:`Fault.CONTROLLER_ERROR` (the loop around
+        the machine failed) and returns the damping command, without any check that
+        could fail again."""
+        if self.phase is Phase.DAMPING:
+            return self._damping()
+        return self._fail(now, Fault.CONTROLLER_ERROR, detail)
 
     # ------------------------------------------------------------------ internals
     def _enter(self, now: float, phase: Phase, reason: str) -> None:
@@ -209,6 +235,10 @@ class SafetyStateMachine:
                                        f"ms (last tick {s.tick})")
         if not s.is_finite():
             return Fault.NONFINITE_STATE, f"state at tick {s.tick} has NaN or inf"
+        norm = float(np.linalg.norm(s.quat))
+        if abs(norm - 1.0) > c.quat_tolerance:
+            return Fault.IMU_QUATERNION, (f"IMU quaternion norm {norm:.3f} at tick {s.tick}, "
+                                          f"expected 1 ± {c.quat_tolerance}")
         lim, m = c.limits, c.joint_margin
         out = np.flatnonzero((s.q < lim.q_min - m) | (s.q > lim.q_max + m))
         if len(out):

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from hybrid_recovery.deploy.protocol import NUM_MOTORS, crc32_words
-from hybrid_recovery.deploy.robot_io import MODE_PR, MOTOR_INDEX, JointCommand, RobotState
+from hybrid_recovery.deploy.robot_io import MODE_PR, MOTOR_INDEX, JointCommand, LowStateReading
 
 HEADER = b"\x00\x01\x00\x00"
 """XCDR1 little-endian encapsulation header (CDR_LE, options 0)."""
@@ -141,13 +141,13 @@ def encode_low_state(tick: int, quat: np.ndarray, gyro: np.ndarray, q: np.ndarra
     return bytes(buf)
 
 
-def decode_low_state(wire: bytes, t_receive: float = 0.0) -> RobotState:
-    """A :class:`RobotState` from a serialised ``LowState_``, with its CRC checked."""
+def decode_low_state(wire: bytes, t_receive: float = 0.0) -> LowStateReading:
+    """A :class:`LowStateReading` from a serialised ``LowState_``, with its CRC checked."""
     _check(wire, STATE_WIRE_SIZE, "LowState_")
     motors = [_view(wire, _ST_Q0 + off, _ST_STRIDE, "<f4")[MOTOR_INDEX].astype(float)
               for off in (0, 4, 12)]
     crc = int(_view(wire, _ST_CRC, 4, "<u4", 1)[0])
-    return RobotState(
+    return LowStateReading(
         tick=int(_view(wire, _ST_TICK, 4, "<u4", 1)[0]),
         quat=_view(wire, _ST_QUAT, 4, "<f4", 4).astype(float),
         gyro=_view(wire, _ST_GYRO, 4, "<f4", 3).astype(float),

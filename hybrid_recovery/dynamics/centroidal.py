@@ -1,4 +1,4 @@
-"""Net centroidal wrench from consecutive momenta (SPEC §4, reward r_mom)."""
+"""Net centroidal wrench from consecutive momenta (paper §III-E2, reward r_mom)."""
 
 from __future__ import annotations
 

@@ -77,7 +77,7 @@ class RobotModel:
         return arr
 
     def _states(self, qpos, qvel=None, qacc=None):
-        qpos = self._check("qpos", qpos, self.nq)
+        qpos = self._normalised(self._check("qpos", qpos, self.nq))
         out = [qpos]
         for name, arr in (("qvel", qvel), ("qacc", qacc)):
             if arr is not None:
@@ -86,6 +86,21 @@ class RobotModel:
                     raise ValueError(f"{name} batch shape {arr.shape[:-1]} does not match "
                                      f"qpos batch shape {qpos.shape[:-1]}")
             out.append(arr)
+        return out
+
+    @staticmethod
+    def _normalised(qpos: np.ndarray) -> np.ndarray:
+        """qpos with the base quaternion qpos[3:7] scaled to unit norm, as MuJoCo reads
+        it (``mj_kinematics`` normalises every free-joint quaternion); a zero one has no
+        orientation and is refused."""
+        quat = qpos[..., 3:7]
+        norm = np.linalg.norm(quat, axis=-1, keepdims=True)
+        zero = (norm < 1e-10).reshape(-1)
+        if zero.any():
+            raise ValueError(f"qpos base quaternion qpos[3:7] is zero "
+                             f"(rows {np.flatnonzero(zero).tolist()})")
+        out = qpos.copy()
+        out[..., 3:7] = quat / norm
         return out
 
     # ------------------------------------------------------------------ quantities

@@ -1,8 +1,8 @@
 """The learned half's environment: batched MuJoCo H1-2 recovery MDP.
 
 :class:`RecoveryEnv` (torch, rsl-rl) is imported on first access, so that the light
-modules of this package (``config``, ``initial_states``, ``scene``, …) load without torch,
-e.g. in deploy processes.
+modules of this package (``config``, ``rewards``, …) load without torch. The scene, the
+start poses and rendering are in :mod:`hybrid_recovery.sim`.
 """
 
 from typing import TYPE_CHECKING, Any

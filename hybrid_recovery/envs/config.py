@@ -1,17 +1,20 @@
-"""Typed configuration of the recovery environment (SPEC §2–§6), units in the docstrings."""
+"""Typed configuration of the recovery environment (paper §III-C–§III-G), with units."""
 
 from __future__ import annotations
 
 import dataclasses
+import typing
 from dataclasses import dataclass, field
 from typing import Any
 
-from hybrid_recovery.policy.action import TARGET_RANGE_FACTOR
+from hybrid_recovery.envs.config_values import checked_value
+from hybrid_recovery.robot.action import TARGET_RANGE_FACTOR
+from hybrid_recovery.robot.constants import UPRIGHT_COM_HEIGHT
 
 
 @dataclass
 class RewardConfig:
-    """Weights w, shaping coefficients α, bandwidths σ of SPEC §4 (rates per second).
+    """Weights w, shaping coefficients α, bandwidths σ of the paper (§III-E; rates per second).
 
     Every term value is multiplied by its weight and by the control period Δt, so a
     weight is a reward per second of the condition holding. A weight of 0 disables a
@@ -37,10 +40,6 @@ class RewardConfig:
     w_rise: float = 1.0
     alpha_rise: float = 4.0
     """α_r [1/(m/s)]."""
-    rise_vel_max: float = float("inf")
-    """ḣ_max [m/s]: r_rise pays min(ḣ_c, ḣ_max); the paper's r_rise is unbounded (∞). The
-    rises the policy found by 6575 are one thrust (up within 0.4–0.6 s), which from the
-    kneel throws the robot onto its face; a cap stops paying for the speed of that thrust."""
     w_fall: float = 1.0
     alpha_fall: float = 4.0
     """α_f [1/(m/s)²]."""
@@ -85,13 +84,6 @@ class RewardConfig:
     feet_flat: float = 0.5
     """u_min: a foot counts fully when its sole normal is vertical, not at all once
     u_z ≤ u_min (60° tilt), linearly in between."""
-    w_shin: float = 0.0
-    """Weight of r_shin, the mean height of the knees above the ankles over a shin length
-    (beyond the paper, off by default). Why: from the kneel and the half-kneel→kneel
-    blends beyond 3/8, full_bridge_feet and its forks thrust upward with both shins on
-    the ground and pitch forward over the knees (training/README.md); r_feet pays only
-    once a flat foot bears weight, r_shin already while a knee is lifted over its foot,
-    the first half of the step to a half-kneel."""
     w_alive: float = 1.0
     w_termination: float = -100.0
     """Early-termination penalty (timeouts excluded), × Δt like every term."""
@@ -101,7 +93,7 @@ class RewardConfig:
 
 @dataclass
 class NoiseConfig:
-    """Additive uniform actor-observation noise half-widths (SPEC §2)."""
+    """Additive uniform actor-observation noise half-widths (paper §III-G)."""
 
     ang_vel: float = 0.5
     """[rad/s]."""
@@ -114,7 +106,7 @@ class NoiseConfig:
 
 @dataclass
 class DomainRandConfig:
-    """Per-episode domain randomisation ranges (SPEC §6); ``scale`` ∈ [0, 1] widens them
+    """Per-episode domain randomisation ranges (paper §III-G); ``scale`` ∈ [0, 1] widens them
     from nominal (0) to the full range (1) — the curriculum drives it."""
 
     kp_scale: tuple[float, float] = (0.75, 1.25)
@@ -139,7 +131,7 @@ class DomainRandConfig:
 
 @dataclass
 class PushConfig:
-    """Torso pushes (SPEC §6): horizontal force at the torso CoM."""
+    """Torso pushes (paper §III-G): horizontal force at the torso CoM."""
 
     force: tuple[float, float] = (50.0, 300.0)
     """|F| [N]."""
@@ -157,7 +149,7 @@ class PushConfig:
 
 @dataclass
 class CurriculumConfig:
-    """Three stages (SPEC §5), advanced by the success rate of finished episodes.
+    """Three stages (paper §III-F), advanced by the success rate of finished episodes.
 
     Stage 1 (exploration): torque limits × torque_scale_explore, no pushes, no domain
     randomisation, start poses ``stage1_poses``. Stage 2: ``difficulty`` rises from 0 to 1
@@ -177,16 +169,16 @@ class CurriculumConfig:
     ``"stood_up"`` = CoM above 0.85 m with the torso within 72° of vertical for 1 s;
     ``"success"`` = the paper's criterion, which adds |ḣ_c| < 0.1 m/s throughout. Training
     rollouts carry the policy's exploration noise, which alone breaks the stillness
-    clause: in a run whose mean policy stood up from 44 % of squats by the full criterion
+    clause: with a mean policy that stood up from 44 % of squats by the full criterion
     (and ~100 % by "stood_up"), not one training episode met it in 4.5 M steps, so the
     curriculum could never advance. Both rates are logged."""
     advance_poses: tuple[str, ...] | None = None
     """Start poses whose episodes count for advancing (and for the assistance); None: all.
     Beyond the paper, for small budgets: with ``stage1_poses`` here, hard poses train
-    alongside from stage 2 on without gating the torque annealing. In the first run, 300
-    iterations (7 M steps) at stage 2 level 1.0 stood up from standing 87 %, squatting
-    70 %, kneeling ~25 % and sitting, supine, prone 0 %, so the all-pose rate could not
-    reach ``advance_success`` and stage 3 (1× torque) never began."""
+    alongside from stage 2 on without gating the torque annealing. Measured: after 300
+    iterations (7 M steps) at stage 2 level 1.0, episodes stood up from standing 87 %,
+    squatting 70 %, kneeling ~25 % and sitting, supine, prone 0 %, so the all-pose rate
+    could not reach ``advance_success`` and stage 3 (1× torque) never began."""
     window: int = 512
     step: float = 0.1
     stage1_poses: tuple[str, ...] = ("standing", "squatting", "kneeling")
@@ -200,8 +192,8 @@ class AssistConfig:
     ``max_tilt`` lets early policies reach, and learn to hold, the upright states that
     random exploration rarely finds. Each time the success rate of the last curriculum
     window of episodes reaches ``CurriculumConfig.advance_success`` the fraction is
-    multiplied by ``decay``; below ``floor`` it is switched off. The curriculum of
-    SPEC §5 only starts counting once the assistance is off.
+    multiplied by ``decay``; below ``floor`` it is switched off. The paper's curriculum
+    (§III-F) only starts counting once the assistance is off.
     """
 
     fraction: float = 0.0
@@ -216,66 +208,27 @@ class AssistConfig:
     """CoM height h_c above which the force stops [m]: a pull up to standing height that
     leaves the robot to stand on its own rather than carrying it off the ground
     (0.8 m g lifts a lying H1-2 to h_c ≈ 1.2 m; 1.0 m g off the ground)."""
-    mode: str = "pull"
-    """Where the force acts. ``pull``: on the torso, F_z = f m g. ``gravity``: on every
-    body at its centre of mass, F_z,b = f m_b g, so that the assisted robot moves as under
-    gravity (1 − f) g: its feet, knees and hands still carry the rest of its weight and
-    nothing holds it up that it does not push against (the pull, at 0.72 m g, held a
-    kneeling policy at its stop height, below the success height; full_se 2725)."""
     poses: list[str] | None = None
     """Start poses whose episodes get the force and whose outcomes (stood up or not)
     anneal it, while the other episodes go on counting for the curriculum; None: every
     episode is assisted and the curriculum waits for the assistance to end."""
-    stuck_time: float | None = None
-    """Stuck-low window of assisted episodes [s] (``inf``: none); None: the env's
-    ``stuck_time``, as for every episode. Why one might lengthen it: with the corrected
-    2 s detector (full_se 2451 on), assisted training episodes from kneeling stood up in
-    4 % against 43 % before it, when the faulty detector seldom ended them; the robot
-    hangs at the pull's stop height, below the success height, and is ended after 2 s.
-    Measured: 6 s (the full_stuck fork, 2776–3050) made episodes 20 % longer and brought
-    no stand-ups back (training/README.md)."""
-
-
-@dataclass
-class ReplayConfig:
-    """Start-state replay (beyond the paper; off by default), see
-    :mod:`hybrid_recovery.envs.replay`.
-
-    States sampled every ``interval_s`` along episodes from ``poses`` that stood up, taken
-    while the CoM was still below the success height, are buffered; a ``fraction`` of
-    resets then starts from one of them, unassisted. With assistance restricted to the low
-    poses (``assist.poses``) no episode from those poses is ever unaided, so the policy
-    never practises the rise it has to make alone; replayed starts are such episodes, and
-    they begin at every phase of rises it has made with help. Their outcomes are logged
-    as ``replay/*`` and count neither for the curriculum nor for the assistance.
-    """
-
-    fraction: float = 0.0
-    """Share of resets that start from a buffered state; 0 = off (the paper)."""
-    poses: tuple[str, ...] | None = None
-    """Start poses whose stand-ups are recorded; None: every pose."""
-    interval_s: float = 0.5
-    """Sampling period along an episode [s]."""
-    capacity: int = 4096
-    """Buffered states (a ring: the oldest are replaced). Not saved with checkpoints: a
-    resumed run refills it from its first stand-ups."""
 
 
 @dataclass
 class BridgeConfig:
     """Start-pose bridges (beyond the paper; off by default), see
-    :mod:`hybrid_recovery.envs.bridge`.
+    :mod:`hybrid_recovery.envs.pose_bridge`.
 
     For each (source, target) of ``pairs``, episodes drawn for the target start instead
     from a blend of the two poses — joint angles and base pitch interpolated, settled
     like every pose — at that bridge's level k / ``levels``, from 0 (the source pose) up;
     each time the stand-up rate of the last ``window`` such episodes reaches ``advance``
     the level rises by one, and at ``levels`` the episodes start from the target itself.
-    Why: from ``half_kneeling`` 29–37 % of unassisted training episodes of the full run
-    stood up at 1× torque, from ``kneeling`` 3–4 % with a pull of 0.72 m g, and none in
-    a deterministic probe without it (training/README.md); the blends are the states in
-    between, where the front foot comes forward. Sitting is 0.3 % with the pull, squatting
-    70–75 % unassisted: in between, the feet come under the body.
+    Why: at 1× torque a policy that stands up from ``half_kneeling`` in about a third of
+    its episodes may never rise from ``kneeling`` (the knee's range keeps the feet from
+    getting under the body); the blends are the states in between, where the front foot
+    comes forward. Likewise between squatting (risen from) and sitting (not), where the
+    feet come under the body. Measured effect: ``docs/experiments.md``.
     """
 
     levels: int = 0
@@ -286,28 +239,14 @@ class BridgeConfig:
     """Stand-up rate of a target's episodes over ``window`` that earns its bridge a level."""
     retreat: float = 0.0
     """Stand-up rate over ``window`` below which the bridge steps back a level (0: never),
-    so that its starts stay where rises are still found. Why: at advance 0.3, the full
-    run's fork stalled 200 iterations at kneeling 3/8 (3–6 % stood up) and sitting 4/8
-    (0 %), where 2/8 and 3/8 had passed 0.3."""
+    so that its starts stay where rises are still found. Why: without it, bridges have
+    stalled for 200 iterations at a level where 0–6 % stood up."""
     window: int = 256
-    mix: float = 0.0
-    """Fraction of a bridge's starts drawn uniformly from its levels below the current one
-    (0: all at the current level); only starts at the current level count toward its
-    window. Why: at levels 16, the full_bridge fork oscillated 300 iterations between
-    kneeling 4/16 and 6/16 and sitting 4/16 and 7/16, the rises of the levels it had
-    passed no longer trained."""
-    stuck_time: float | None = None
-    """Stuck-low window [s] of the episodes of the bridges' target poses (any level);
-    None: the env's ``stuck_time``. Why one might lengthen it: from the kneel and its
-    blends beyond 3/8, full_bridge_feet 4800 (deterministic) pitches forward over its knees
-    in its first 0.3 s (the CoM 0.45 m ahead of its start, the feet kicked up 0.6 m behind)
-    and is ended at 2.0 s in every episode: one attempt per episode, while its rises from
-    3/8 take longer."""
 
 
 @dataclass
 class EnvConfig:
-    """The recovery environment (SPEC §2–§6)."""
+    """The recovery environment (paper §III-C–§III-G)."""
 
     num_envs: int = 1024
     num_threads: int = 0
@@ -336,17 +275,17 @@ class EnvConfig:
     torso–ground contact under high contact force"). Measured on this model (32 envs):
     resting on the torso 0.2–0.35 kN; passive falls from standing peak at 0.75 kN
     (median); random actions from kneeling at 10× torque slam at 7.6 kN (median, 90th
-    percentile 11.8 kN). At 2 kN and at 5 kN every episode of the first two runs ended
-    by torso contact within 1–2 s (rate 1.0, no stand-up learnt); 10 kN ends the
-    violent slams only."""
+    percentile 11.8 kN). At 2 kN and at 5 kN every training episode ended by torso
+    contact within 1–2 s (rate 1.0, no stand-up learnt); 10 kN ends the violent slams
+    only."""
     stuck_time: float = 2.0
     """Stuck-low: no CoM rise of stuck_rise above the lowest point of the last stuck_time
-    seconds, while not upright, ends the episode [s]. (A first version reset its timer on
-    any 2 cm rise: in the third run 48 % of episodes timed out lying at h_c ≈ 0.34 m by
-    wiggling.)"""
+    seconds, while not upright, ends the episode [s]. (Measured against the rule read
+    literally, a timer reset by any 2 cm rise: 48 % of episodes then timed out lying at
+    h_c ≈ 0.34 m by wiggling.)"""
     stuck_rise: float = 0.02
     """[m]."""
-    upright_height: float = 0.85
+    upright_height: float = UPRIGHT_COM_HEIGHT
     """CoM height of the success criterion [m]."""
     rewards: RewardConfig = field(default_factory=RewardConfig)
     noise: NoiseConfig = field(default_factory=NoiseConfig)
@@ -354,30 +293,33 @@ class EnvConfig:
     pushes: PushConfig = field(default_factory=PushConfig)
     curriculum: CurriculumConfig = field(default_factory=CurriculumConfig)
     assist: AssistConfig = field(default_factory=AssistConfig)
-    replay: ReplayConfig = field(default_factory=ReplayConfig)
     bridge: BridgeConfig = field(default_factory=BridgeConfig)
 
 
 def default_config() -> EnvConfig:
-    """The paper's environment (SPEC §2–§6) with this project's documented choices."""
+    """The paper's environment (§III-C–§III-G) with this project's documented choices."""
     return EnvConfig()
 
 
 def apply_overrides(cfg: Any, overrides: dict[str, Any]) -> Any:
     """Applies dotted overrides, e.g. ``{"rewards.w_cp": 0.0, "num_envs": 64}``.
 
+    Each value is checked against its field's declared type and range
+    (:func:`~hybrid_recovery.envs.config_values.checked_value`): ``"abc"`` for a number
+    or ``0`` for ``physics_dt`` is refused here, not met later as a TypeError.
+
     Raises:
         KeyError: naming the unknown key and the valid ones at that level.
+        ValueError: ``config key '<key>' must be ..., got <value>``.
     """
     for dotted, value in overrides.items():
         target = cfg
         *path, last = dotted.split(".")
         for part in path:
             target = _field(target, part, dotted)
-        current = _field(target, last, dotted)
-        if isinstance(current, tuple) and isinstance(value, list):
-            value = tuple(value)
-        setattr(target, last, value)
+        _field(target, last, dotted)
+        hint = typing.get_type_hints(type(target))[last]
+        setattr(target, last, checked_value(dotted, value, hint))
     return cfg
 
 
@@ -386,3 +328,4 @@ def _field(obj: Any, name: str, dotted: str) -> Any:
     if name not in names:
         raise KeyError(f"unknown config key '{dotted}': '{name}' is not one of {names}")
     return getattr(obj, name)
+

@@ -1,13 +1,13 @@
-"""The three-stage curriculum of SPEC §5, as a small state machine with saved state."""
+"""The three-stage curriculum of the paper (§III-F), as a small state machine with saved state."""
 
 from __future__ import annotations
 
-from collections import deque
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from hybrid_recovery.envs.config import CurriculumConfig
+from hybrid_recovery.envs.outcome_window import OutcomeWindow
 
 
 @dataclass
@@ -25,10 +25,10 @@ class Curriculum:
     cfg: CurriculumConfig
     stage: int = 1
     level: float = 0.0
-    _outcomes: deque = field(default_factory=deque)
+    _outcomes: OutcomeWindow = field(init=False)
 
     def __post_init__(self) -> None:
-        self._outcomes = deque(maxlen=self.cfg.window)
+        self._outcomes = OutcomeWindow(self.cfg.window)
         if not self.cfg.enabled:
             self.stage, self.level = 3, 1.0
 
@@ -53,10 +53,8 @@ class Curriculum:
 
     def record(self, success: np.ndarray) -> bool:
         """Adds finished episodes' outcomes; advances when earned. Returns True on advance."""
-        self._outcomes.extend(bool(s) for s in np.atleast_1d(success))
-        if not self.cfg.enabled or len(self._outcomes) < self.cfg.window:
-            return False
-        if np.mean(self._outcomes) < self.cfg.advance_success:
+        self._outcomes.extend(success)
+        if not self.cfg.enabled or self._outcomes.verdict(self.cfg.advance_success) < 1:
             return False
         if self.stage == 3 and self.level >= 1.0 - 1e-9:
             return False
@@ -71,8 +69,8 @@ class Curriculum:
         return True
 
     def state_dict(self) -> dict:
-        return {"stage": self.stage, "level": self.level, "outcomes": list(self._outcomes)}
+        return {"stage": self.stage, "level": self.level, "outcomes": self._outcomes.state()}
 
     def load_state_dict(self, state: dict) -> None:
         self.stage, self.level = int(state["stage"]), float(state["level"])
-        self._outcomes = deque(state.get("outcomes", []), maxlen=self.cfg.window)
+        self._outcomes = OutcomeWindow(self.cfg.window, state.get("outcomes", []))

@@ -1,4 +1,4 @@
-"""Per-episode domain randomisation (SPEC §6) on a ``mujoco.batch.Batch``'s model fields.
+"""Per-episode domain randomisation (paper §III-G) on a ``mujoco.batch.Batch``'s model fields.
 
 Ranges are widened from nominal by ``scale`` ∈ [0, 1] (the curriculum's difficulty): a
 multiplier range (a, b) becomes (1 + scale (a − 1), 1 + scale (b − 1)); absolute ranges

@@ -19,14 +19,14 @@ from gymnasium import spaces
 from tensordict import TensorDict
 
 from hybrid_recovery.envs.config import EnvConfig, default_config
-from hybrid_recovery.envs.initial_states import POSES
 from hybrid_recovery.envs.recovery_env import RecoveryEnv
 from hybrid_recovery.observation import ACTOR_OBS_DIM
-from hybrid_recovery.policy.action import ACTION_CLIP
+from hybrid_recovery.robot.action import ACTION_CLIP
 from hybrid_recovery.robot.constants import NUM_JOINTS
+from hybrid_recovery.sim.initial_states import POSES
 
 if TYPE_CHECKING:
-    from hybrid_recovery.envs.render import BalanceRenderer
+    from hybrid_recovery.sim.render import BalanceRenderer
 
 ACTION_BOUND = ACTION_CLIP
 """|a| the environment accepts per joint; larger actions are clipped to it."""
@@ -52,8 +52,8 @@ class RecoveryGymEnv(gym.Env):
     Args:
         cfg: environment configuration (``num_envs`` and ``num_threads`` are set to 1);
             None for :func:`hybrid_recovery.envs.default_config`.
-        render_mode: None or ``"rgb_array"`` (needs an OpenGL context, see
-            :mod:`hybrid_recovery.envs.render`).
+        render_mode: None or ``"rgb_array"`` (OpenGL where a context can be made, else
+            software; see :mod:`hybrid_recovery.sim.render`).
 
     Raises:
         ValueError: an unknown render mode.
@@ -139,7 +139,7 @@ class RecoveryGymEnv(gym.Env):
         """The current frame with the balance overlay, (480, 640, 3) uint8."""
         if self.render_mode != "rgb_array":
             return None
-        from hybrid_recovery.envs.render import BalanceRenderer, balance_overlay
+        from hybrid_recovery.sim.render import BalanceRenderer, balance_overlay
 
         env = self.env
         if self._renderer is None:

@@ -1,4 +1,4 @@
-"""Torso pushes (SPEC §6): horizontal forces of 50–300 N for 0.1–0.2 s at random times.
+"""Torso pushes (paper §III-G): horizontal forces of 50–300 N for 0.1–0.2 s at random times.
 
 Once a robot has been upright for ``upright_time``, a push is with probability
 ``fall_probability`` a large fall-inducing one, so that episodes cover the whole

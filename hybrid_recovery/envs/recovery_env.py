@@ -2,7 +2,7 @@
 
 One control step (50 Hz) = ``decimation`` physics substeps; within it each robot's PD
 targets follow its per-episode actuation delay. All MDP work is vectorised numpy over
-the batch; balance inputs are MuJoCo sensors (see :mod:`hybrid_recovery.envs.scene`)
+the batch; balance inputs are MuJoCo sensors (see :mod:`hybrid_recovery.sim.scene`)
 turned into balance quantities by :mod:`hybrid_recovery.dynamics`.
 """
 
@@ -21,25 +21,24 @@ from hybrid_recovery.dynamics import GRAVITY, net_centroidal_wrench
 from hybrid_recovery.dynamics.capturability import capture_point
 from hybrid_recovery.dynamics.support import signed_distance_batched
 from hybrid_recovery.envs.assist import Assist
-from hybrid_recovery.envs.bridge import PoseBridge
 from hybrid_recovery.envs.config import EnvConfig, default_config
 from hybrid_recovery.envs.curriculum import Curriculum
 from hybrid_recovery.envs.domain_rand import Randomizer
-from hybrid_recovery.envs.initial_states import (
+from hybrid_recovery.envs.pose_bridge import PoseBridge
+from hybrid_recovery.envs.pushes import Pushes
+from hybrid_recovery.envs.rewards import RewardState, compute_rewards
+from hybrid_recovery.envs.terminations import TERMINATIONS, StuckLow, success_step
+from hybrid_recovery.observation.actor import actor_observation, noise_halfwidths, projected_gravity
+from hybrid_recovery.robot import constants
+from hybrid_recovery.robot.action import clip_action, joint_targets
+from hybrid_recovery.robot.mjcf import default_qpos
+from hybrid_recovery.sim.initial_states import (
     POSES,
     perturb_start,
     seat_on_ground,
     settle_pool,
 )
-from hybrid_recovery.envs.pushes import Pushes
-from hybrid_recovery.envs.replay import StartReplay
-from hybrid_recovery.envs.rewards import RewardState, compute_rewards
-from hybrid_recovery.envs.scene import build_scene, read_contacts
-from hybrid_recovery.envs.terminations import TERMINATIONS, StuckLow, success_step
-from hybrid_recovery.observation.actor import actor_observation, noise_halfwidths, projected_gravity
-from hybrid_recovery.policy.action import clip_action, joint_targets
-from hybrid_recovery.robot import constants
-from hybrid_recovery.robot.mjcf import default_qpos
+from hybrid_recovery.sim.scene import build_scene, read_contacts
 
 PRIVILEGED_DIM = 17
 """CoM position (3), velocity (3), acceleration (3), p_l (3), L (3), ξ − p_c,xy (2)."""
@@ -93,20 +92,11 @@ class RecoveryEnv(VecEnv):
         self.assist = Assist(cfg.assist, cfg.curriculum.window, cfg.curriculum.advance_success)
         self.pushes = Pushes(cfg.pushes, n, self.dt)
         self.stuck = StuckLow(n, cfg.stuck_time, cfg.stuck_rise, self.dt)
-        self.stuck_assisted = None if cfg.assist.stuck_time is None else StuckLow(
-            n, cfg.assist.stuck_time, cfg.stuck_rise, self.dt)
-        """Stuck-low of the assisted episodes, where their window differs."""
-        self.stuck_bridged = None if cfg.bridge.stuck_time is None else StuckLow(
-            n, cfg.bridge.stuck_time, cfg.stuck_rise, self.dt)
-        """Stuck-low of the bridge targets' episodes, where their window differs."""
-        self.replay = StartReplay(cfg.replay, n, m.nq, m.nv, self.max_episode_length, self.dt)
         self.pool = settle_pool(m, per_pose=32, rng=self.rng, nthread=cfg.num_threads)
         self.bridge = PoseBridge(cfg.bridge)
-        self._bridge_target = np.isin(POSES, self.bridge.targets)
-        """Whether each start pose is a bridge's target, (len(POSES),) bool."""
         self.bridge_pool = settle_pool(m, per_pose=32, rng=self.rng, nthread=cfg.num_threads,
                                        library=self.bridge.poses()) if cfg.bridge.levels else {}
-        """Settled blends of the start-pose bridge (:mod:`~.bridge`), by level name."""
+        """Settled blends of the start-pose bridges (:mod:`~.pose_bridge`), by level name."""
         self.noise = noise_halfwidths(cfg.noise.ang_vel, cfg.noise.gravity, cfg.noise.joint_pos,
                                       cfg.noise.joint_vel)
         self.h_star = cfg.rewards.height_target or float(self._com_height(default_qpos(m)))
@@ -127,19 +117,14 @@ class RecoveryEnv(VecEnv):
         self._window_counted = np.zeros(n, dtype=bool)
         """Episodes whose outcome the bridges / the curriculum and assistance windows have
         counted (:meth:`_count_bridges`, :meth:`_count_windows`), (N,) bool."""
-        self.replayed = np.zeros(n, dtype=bool)
-        """Episodes that started from a replayed state (:mod:`~.replay`)."""
         self._pose_names = np.asarray(POSES)
-        self._recorded_poses = np.isin(POSES, cfg.replay.poses) \
-            if cfg.replay.poses is not None else np.ones(len(POSES), dtype=bool)
         if cfg.curriculum.advance_on not in ("stood_up", "success"):
             raise ValueError(f"curriculum.advance_on must be 'stood_up' or 'success', got "
                              f"'{cfg.curriculum.advance_on}'")
         for key, named in (("curriculum.advance_poses", cfg.curriculum.advance_poses or ()),
                            ("curriculum.stage1_poses", cfg.curriculum.stage1_poses),
                            ("pose_weights", cfg.pose_weights),
-                           ("assist.poses", cfg.assist.poses or ()),
-                           ("replay.poses", cfg.replay.poses or ())):
+                           ("assist.poses", cfg.assist.poses or ())):
             unknown = set(named) - set(POSES)
             if unknown:
                 raise ValueError(f"{key} has unknown poses {sorted(unknown)}; "
@@ -161,35 +146,34 @@ class RecoveryEnv(VecEnv):
         return self._obs
 
     def step(self, actions: torch.Tensor) -> tuple[TensorDict, torch.Tensor, torch.Tensor, dict]:
+        """One control step of every env; finished envs are reset inside it.
+
+        An env whose action a_t (N, 27) holds NaN or inf is a fault of that env alone: it
+        is stepped with a_t = 0, then reset, counted in :attr:`nan_resets` and logged as
+        ``termination/nan``; no NaN reaches an observation or a reward.
+        """
+        raw = actions.detach().cpu().numpy()
+        bad_action = ~np.isfinite(raw).all(1)
         self.last_action = self.action
-        self.action = clip_action(actions.detach().cpu().numpy())
+        self.action = clip_action(np.where(bad_action[:, None], 0.0, raw))
         lo_hi = self.randomizer.jnt_range[:, 1:1 + self.num_actions]
         # within this episode's (scaled) joint ranges, applied delay_steps substeps late
         self.ctrl[:] = joint_targets(self.action, self.cfg.action_scale,
                                      (lo_hi[..., 0], lo_hi[..., 1]))
         self.xfrc[:, self.torso, :3] = self.pushes.force(self.upright_time, self.rng,
                                                        self.curriculum.difficulty)
-        helped = self.assist.assisted(self._pose_names)[self.start_pose]  # 7 names, not N
-        helped &= ~self.replayed
-        if self.cfg.assist.mode == "gravity":  # every body's force set, also once annealed
-            lift = helped * self.assist.acceleration(self._state["gravity_b"], GRAVITY,
-                                                     self._state["height"])
-            push_z = self.xfrc[:, self.torso, 2].copy()
-            self.xfrc[:, :, 2] = lift[:, None] * self.randomizer.mass
-            self.xfrc[:, self.torso, 2] += push_z
-        elif self.assist.active:
+        if self.assist.active:
+            helped = self.assist.assisted(self._pose_names)[self.start_pose]  # 7 names, not N
             self.xfrc[:, self.torso, 2] += helped * self.assist.force_z(
                 self._state["mass"], self._state["gravity_b"], GRAVITY, self._state["height"])
-        if self.replay.active:
-            self.replay.record(self.episode_length_buf.numpy(), self.qpos, self.qvel,
-                               self._state["height"], self._recording())
-        failed = self._physics()
+        failed = self._physics(bad_action)
         self.episode_length_buf += 1
         self._read_state()
         s = self._state
         dones_by = {
             "torso_contact": s["torso_force"] > self.cfg.torso_force_limit,
-            "stuck_low": self._stuck_low(s["height"], helped),
+            "stuck_low": self.stuck.update(s["height"], self.dt,
+                                           s["height"] < self.cfg.upright_height),
             "nan": failed,
         }
         terminated = np.logical_or.reduce(list(dones_by.values()))
@@ -204,9 +188,6 @@ class RecoveryEnv(VecEnv):
         self.upright_time = success_step(self.upright_time, s, self.dt)
         self.succeeded |= self.upright_time >= 1.0
         self.up_time = success_step(self.up_time, s, self.dt, still=False)
-        if self.replay.active:
-            rose = np.flatnonzero((self.up_time >= 1.0) & ~self.stood_up & self._recording())
-            self.replay.harvest(rose, self.start_pose[rose], self.cfg.upright_height)
         self.stood_up |= self.up_time >= 1.0
         self._count_bridges(np.flatnonzero(self.stood_up & ~self._bridge_counted))
         self._count_windows(np.flatnonzero(self._window_outcome() & ~self._window_counted))
@@ -222,10 +203,11 @@ class RecoveryEnv(VecEnv):
                 torch.from_numpy(done), extras)
 
     # ------------------------------------------------------------------ physics
-    def _physics(self) -> np.ndarray:
-        """Steps ``decimation`` substeps (the actuators apply the delayed targets);
-        returns the failed envs."""
-        failed = np.zeros(self.num_envs, dtype=bool)
+    def _physics(self, failed: np.ndarray) -> np.ndarray:
+        """Steps ``decimation`` substeps (the actuators apply the delayed targets); resets
+        and returns the failed envs: ``failed`` (N,) bool on entry (a non-finite action),
+        and those whose simulation failed or diverged."""
+        failed = failed.copy()
         try:
             self.sims.step(nstep=self.cfg.decimation, stage=mujoco.mjtStage.mjSTAGE_VEL)
         except mjbatch.SimulationError as err:
@@ -237,19 +219,6 @@ class RecoveryEnv(VecEnv):
             ids = np.flatnonzero(failed)
             self._reset(ids)
         return failed
-
-    def _stuck_low(self, height: np.ndarray, helped: np.ndarray) -> np.ndarray:
-        """The stuck-low termination after one step, (N,) bool; the ``helped`` (assisted)
-        envs by their own window where ``assist.stuck_time`` is set, the episodes of the
-        bridges' targets by theirs where ``bridge.stuck_time`` is."""
-        low = height < self.cfg.upright_height
-        stuck = self.stuck.update(height, self.dt, low)
-        if self.stuck_assisted is not None:
-            stuck = np.where(helped, self.stuck_assisted.update(height, self.dt, low), stuck)
-        if self.stuck_bridged is not None:
-            stuck = np.where(self._bridge_target[self.start_pose],
-                             self.stuck_bridged.update(height, self.dt, low), stuck)
-        return stuck
 
     # ------------------------------------------------------------------ state
     def _com_height(self, qpos: np.ndarray) -> float:
@@ -310,7 +279,7 @@ class RecoveryEnv(VecEnv):
             torque=s["torque"], limit_violation=excess, action=self.action,
             last_action=self.last_action, gravity_b=s["gravity_b"],
             support_contacts=s["support_contacts"], foot_force=s["foot_force"],
-            foot_up=s["foot_up"], shin_up=s["shin_up"], weight=s["mass"] * GRAVITY,
+            foot_up=s["foot_up"], weight=s["mass"] * GRAVITY,
             terminated=terminated,
         )
 
@@ -344,11 +313,6 @@ class RecoveryEnv(VecEnv):
         return np.concatenate([heading(rel), heading(s["com_vel"]), heading(s["com_acc"]),
                                heading(s["lin"]), heading(s["ang"]), heading(cp_rel)[:, :2]], 1)
 
-    def _recording(self) -> np.ndarray:
-        """Envs whose rise would enter the replay buffer: from a recorded pose, not
-        themselves replayed, (N,) bool."""
-        return self._recorded_poses[self.start_pose] & ~self.replayed
-
     # ------------------------------------------------------------------ resets
     def _sample_poses(self, count: int) -> np.ndarray:
         weights = np.array([self.cfg.pose_weights.get(p, 0.0) for p in POSES])
@@ -374,21 +338,12 @@ class RecoveryEnv(VecEnv):
                 pool = self.pool[name][0]
                 qpos[rows] = pool[rng.integers(len(pool), size=len(rows))]
                 continue
-            levels[rows] = self.bridge.draw_levels(name, len(rows), rng)
-            for level in np.unique(levels[rows]):
-                at = rows[levels[rows] == level]
-                pool = self.bridge_pool[self.bridge.pool_name(name, int(level))][0]
-                qpos[at] = pool[rng.integers(len(pool), size=len(at))]
+            levels[rows] = self.bridge.level[name]
+            pool = self.bridge_pool[self.bridge.pool_name(name)][0]
+            qpos[rows] = pool[rng.integers(len(pool), size=len(rows))]
         qpos = perturb_start(qpos, rng, dr.init_base_pos, dr.init_base_rot, dr.init_joint_pos,
                              self.qadr, self.model.jnt_range[1:1 + self.num_actions])
-        replayed = self.replay.draw(n, rng)
-        qvel = np.zeros((n, self.model.nv))
-        if replayed.any():  # a state along an earlier rise, as it was (moving)
-            qpos[replayed], qvel[replayed], poses[replayed] = self.replay.sample(
-                int(replayed.sum()), rng)
-        levels[replayed] = -1
-        self.start_pose[ids], self.start_level[ids], self.replayed[ids] = poses, levels, replayed
-        self.replay.clear(ids)
+        self.start_pose[ids], self.start_level[ids] = poses, levels
         self.randomizer.set_limits(ids, self.curriculum.torque_scale,
                                    self.curriculum.position_limit_factor)
         # start inside this episode's (scaled) joint ranges: the limit constraint would
@@ -397,7 +352,7 @@ class RecoveryEnv(VecEnv):
         qpos[:, self.qadr] = np.clip(qpos[:, self.qadr], lo, hi)
         self.sims.reset(ids, stage=mujoco.mjtStage.mjSTAGE_NONE)
         self.qpos[ids] = qpos
-        self.qvel[ids] = qvel
+        self.qvel[ids] = 0.0
         seat_on_ground(self.model, self.sims, ids)
         self.randomizer.randomize(ids, rng, self.curriculum.difficulty)
         delay = rng.integers(self._delay_steps[0], self._delay_steps[1] + 1, n)
@@ -416,9 +371,6 @@ class RecoveryEnv(VecEnv):
         self.pushes.reset(ids, rng)
         height = self.sims.bind("sensordata")[ids, self.layout.com][:, 2]
         self.stuck.reset(ids, height)
-        for detector in (self.stuck_assisted, self.stuck_bridged):
-            if detector is not None:
-                detector.reset(ids, height)
         self.episode_length_buf[torch.from_numpy(ids)] = 0
         self.upright_time[ids] = 0.0
         self.succeeded[ids] = False
@@ -438,16 +390,13 @@ class RecoveryEnv(VecEnv):
             log[f"termination/{name}"] = torch.from_numpy(dones_by[name][ids].astype(np.float32))
         log["episode/success"] = torch.from_numpy(self.succeeded[ids].astype(np.float32))
         log["episode/stood_up"] = torch.from_numpy(self.stood_up[ids].astype(np.float32))
-        fresh = ~self.replayed[ids]  # replayed starts: logged apart, counted for nothing
         for k, pose in enumerate(POSES):  # by start pose, only when such episodes ended
-            mine = ids[(self.start_pose[ids] == k) & fresh]
+            mine = ids[self.start_pose[ids] == k]
             if len(mine):
                 log[f"pose_success/{pose}"] = torch.from_numpy(
                     self.succeeded[mine].astype(np.float32))
                 log[f"pose_stood_up/{pose}"] = torch.from_numpy(
                     self.stood_up[mine].astype(np.float32))
-        if self.replay.active:
-            log.update(self._replay_log(ids[~fresh]))
         self._count_bridges(ids)
         self._count_windows(ids)
         for target in self.bridge.targets:
@@ -465,17 +414,17 @@ class RecoveryEnv(VecEnv):
     # happens, a failure when the episode ends. Counted only at the end, a window fills
     # with the failures first (stuck low after 2 s; a risen robot stays up until the
     # 20 s timeout), and after each level change, or resume, the bridges stepped back
-    # on windows of failures (training/README.md).
+    # on windows of failures (docs/experiments.md, §2).
     def _window_outcome(self) -> np.ndarray:
         """The curriculum's and the assistance's outcome so far (``advance_on``), (N,) bool."""
         return self.stood_up if self.cfg.curriculum.advance_on == "stood_up" else self.succeeded
 
     def _count_bridges(self, ids: np.ndarray) -> None:
-        """Adds the stood-up outcomes of the not yet counted, not replayed episodes
-        ``ids`` to their bridge's window, with their start levels."""
+        """Adds the stood-up outcomes of the not yet counted episodes ``ids`` to their
+        bridge's window, with their start levels."""
         if not self.bridge.targets:  # no bridge: nothing to count, every step
             return
-        ids = ids[~self._bridge_counted[ids] & ~self.replayed[ids]]
+        ids = ids[~self._bridge_counted[ids]]
         self._bridge_counted[ids] = True
         names = self._pose_names[self.start_pose[ids]]
         for target in self.bridge.targets:
@@ -484,10 +433,10 @@ class RecoveryEnv(VecEnv):
                 self.bridge.record(target, self.stood_up[mine], self.start_level[mine])
 
     def _count_windows(self, ids: np.ndarray) -> None:
-        """Adds the outcomes of the not yet counted, not replayed episodes ``ids``:
+        """Adds the outcomes of the not yet counted episodes ``ids``:
         assisted episodes anneal the assistance, the others (of ``advance_poses``) count
         for the curriculum, which waits while every pose is assisted."""
-        ids = ids[~self._window_counted[ids] & ~self.replayed[ids]]
+        ids = ids[~self._window_counted[ids]]
         self._window_counted[ids] = True
         if not len(ids):
             return
@@ -501,17 +450,3 @@ class RecoveryEnv(VecEnv):
             helped = self.assist.assisted(self._pose_names)[self.start_pose[ids]]
             self.assist.record(outcome[helped])
             self.curriculum.record(outcome[scored & ~helped])
-
-    def _replay_log(self, ids: np.ndarray) -> dict:
-        """``replay/*``: outcomes of the finished replayed episodes ``ids``, by the pose
-        their state came from, and the buffer's size."""
-        log: dict[str, torch.Tensor | float] = {"replay/buffer_size": float(self.replay.size)}
-        if len(ids):
-            log["replay/stood_up"] = torch.from_numpy(self.stood_up[ids].astype(np.float32))
-            log["replay/success"] = torch.from_numpy(self.succeeded[ids].astype(np.float32))
-        for k, pose in enumerate(POSES):
-            mine = ids[self.start_pose[ids] == k]
-            if len(mine):
-                log[f"replay_stood_up/{pose}"] = torch.from_numpy(
-                    self.stood_up[mine].astype(np.float32))
-        return log

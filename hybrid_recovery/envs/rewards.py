@@ -1,4 +1,4 @@
-"""Reward terms of SPEC §4: R = R_I + R_II + R_III, each a pure batched function.
+"""Reward terms of the paper (§III-E): R = R_I + R_II + R_III, each a pure batched function.
 
 Every term returns shape (N,). :data:`REWARD_TERMS` lists them with their weights;
 :func:`compute_rewards` applies ``value × weight × Δt`` in one place and returns the
@@ -34,8 +34,6 @@ class RewardState:
         support_contacts: number of hand and elbow contacts bearing load, (N,).
         foot_force: normal contact force on each foot (left, right), (N, 2) [N].
         foot_up: z component of each foot's sole normal, u_z ∈ [−1, 1], (N, 2).
-        shin_up: z component of each shin's unit vector from ankle to knee, s_z ∈ [−1, 1],
-            (N, 2).
         weight: m g of each env's robot, (N,) [N].
         terminated: early termination (not timeout), (N,) bool.
     """
@@ -54,7 +52,6 @@ class RewardState:
     support_contacts: np.ndarray
     foot_force: np.ndarray
     foot_up: np.ndarray
-    shin_up: np.ndarray
     weight: np.ndarray
     terminated: np.ndarray
 
@@ -66,8 +63,8 @@ def height_gaussian(s: RewardState, c: RewardConfig, h_star: float) -> np.ndarra
 
 
 def rise_velocity(s: RewardState, c: RewardConfig, h_star: float) -> np.ndarray:
-    """r_rise = α_r clip(ḣ_c, 0, ḣ_max) 1[h_c < h* − δ_h]: off inside the dead band."""
-    rising = np.clip(s.height_vel, 0.0, c.rise_vel_max)
+    """r_rise = α_r max(ḣ_c, 0) 1[h_c < h* − δ_h]: off inside the dead band."""
+    rising = np.maximum(s.height_vel, 0.0)
     return c.alpha_rise * rising * (s.height < h_star - c.height_band)
 
 
@@ -135,13 +132,6 @@ def feet_load(s: RewardState, c: RewardConfig, h_star: float) -> np.ndarray:
     return np.minimum(np.sum(s.foot_force * flat, -1) / s.weight, 1.0)
 
 
-def shins_up(s: RewardState, c: RewardConfig, h_star: float) -> np.ndarray:
-    """r_shin = ½ Σ_f max(s_z,f, 0) ∈ [0, 1]: how far each knee stands above its ankle.
-    Standing ≈ 1; a half-kneel ≈ ½ (the front shin); kneeling, lying with straight legs
-    ≈ 0; a foot kicked up behind the knee pays nothing."""
-    return np.mean(np.maximum(s.shin_up, 0.0), -1)
-
-
 def alive(s: RewardState, c: RewardConfig, h_star: float) -> np.ndarray:
     """1 per step survived."""
     return np.ones_like(s.height)
@@ -169,7 +159,6 @@ REWARD_TERMS: tuple[tuple[str, str, Term], ...] = (
     ("orient", "w_orient", orientation_sq),
     ("contact", "w_contact", support_contact),
     ("feet", "w_feet", feet_load),
-    ("shin", "w_shin", shins_up),
     ("alive", "w_alive", alive),
     ("termination", "w_termination", termination),
 )

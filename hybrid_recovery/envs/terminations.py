@@ -1,14 +1,14 @@
-"""Terminations (SPEC §5) and the paper's success criterion (SPEC §7)."""
+"""Terminations (paper §III-F, stuck low §IV-B) and the paper's success criterion (§IV-A3)."""
 
 from __future__ import annotations
 
 import numpy as np
 
+from hybrid_recovery.robot.constants import UPRIGHT_COM_HEIGHT
+
 TERMINATIONS = ("timeout", "torso_contact", "stuck_low", "nan")
 """Termination causes logged as ``termination/<name>``."""
 
-SUCCESS_HEIGHT = 0.85
-"""CoM height above which a robot counts as up [m]."""
 SUCCESS_VERTICAL_SPEED = 0.1
 """|ḣ_c| below which it counts as steady [m/s]."""
 SUCCESS_TILT = np.deg2rad(72.0)
@@ -26,7 +26,7 @@ def upright(height: np.ndarray, height_vel: np.ndarray, gravity_b: np.ndarray,
         gravity_b: torso projected gravity (N, 3); tilt = arccos(−g_b,z).
         still: include the |ḣ_c| < 0.1 m/s clause (False: up and upright only).
     """
-    ok = (height > SUCCESS_HEIGHT) & (-gravity_b[..., 2] > np.cos(SUCCESS_TILT))
+    ok = (height > UPRIGHT_COM_HEIGHT) & (-gravity_b[..., 2] > np.cos(SUCCESS_TILT))
     return ok & (np.abs(height_vel) < SUCCESS_VERTICAL_SPEED) if still else ok
 
 

@@ -1,4 +1,4 @@
-"""The ablation table (SPEC §7) from training runs' TensorBoard logs."""
+"""The ablation table (paper §IV-B) from training runs' TensorBoard logs."""
 
 from __future__ import annotations
 

@@ -16,14 +16,23 @@ CONTACT_PRESETS: dict[str, dict[str, float]] = {
 damping ratio (MuJoCo ``solref``)."""
 
 
+def check_contact_preset(name: str) -> None:
+    """Refuses an unknown preset name.
+
+    Raises:
+        ValueError: ``unknown contact preset '<name>': choose one of [...]``.
+    """
+    if name not in CONTACT_PRESETS:
+        raise ValueError(f"unknown contact preset '{name}': choose one of {list(CONTACT_PRESETS)}")
+
+
 def apply_contact_preset(model: mujoco.MjModel, name: str) -> None:
     """Writes the preset into ``model`` in place.
 
     Raises:
         ValueError: unknown preset name.
     """
-    if name not in CONTACT_PRESETS:
-        raise ValueError(f"unknown contact preset '{name}': choose one of {list(CONTACT_PRESETS)}")
+    check_contact_preset(name)
     preset = CONTACT_PRESETS[name]
     if "friction" in preset:
         model.geom_friction[:, 0] = preset["friction"]

@@ -14,11 +14,10 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from hybrid_recovery.deploy.limits import SafetyLimits
-from hybrid_recovery.observation import actor_observation
 from hybrid_recovery.observation.mujoco_source import ProprioceptionMap, read_proprioception
-from hybrid_recovery.policy import SHIPPED, OnnxPolicy, clip_action, joint_targets, resolve_policy
+from hybrid_recovery.policy import SHIPPED, OnnxPolicy, policy_step, resolve_policy
 from hybrid_recovery.robot import constants
+from hybrid_recovery.robot.limits import SafetyLimits
 
 
 class ZeroController:
@@ -46,8 +45,8 @@ class OnnxPolicyController:
     curriculum's final position-limit factor, and the robot's safety layer does the same
     (``SafetyConfig.q_ref_range_factor``); so does this controller, by the policy's
     ``target_range_factor``. Without the clamp, a policy that drives joints against the
-    training bound (full_se 3050: the knees in 91–96 % of standing steps) met a different
-    robot here.
+    training bound (a standing policy can hold its knees there in over 90 % of steps)
+    meets a different robot here.
 
     Args:
         path: ``policy.onnx`` or the directory holding it and ``policy.json``.
@@ -79,13 +78,10 @@ class OnnxPolicyController:
 
     def __call__(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
         if self.step % self.decimation == 0:
-            gyro, quat, q, dq = read_proprioception(model, data, self.where)
-            obs = actor_observation(gyro[None], quat[None], q[None], dq[None],
-                                    self.last_action[None])[0]
-            action = self.policy(obs)
-            self.last_action = clip_action(action)
-            self.pending.append((self.step + self.delay_steps,
-                                 joint_targets(action, self.scale, self.bounds)))
+            step = policy_step(self.policy, *read_proprioception(model, data, self.where),
+                               self.last_action, self.scale, self.bounds)
+            self.last_action = step.last_action
+            self.pending.append((self.step + self.delay_steps, step.q_ref))
         while self.pending and self.pending[0][0] <= self.step:
             self.target = self.pending.popleft()[1]
         self.step += 1
@@ -114,14 +110,14 @@ def make_controller(spec: str):
         kind, arg = "onnx", SHIPPED
     if kind == "hybrid" and not arg:
         arg = SHIPPED
-    if kind in ("onnx", "hybrid") and arg == SHIPPED:
+    if kind == "onnx" and not arg:
+        raise ValueError("onnx controller needs a path: onnx:PATH")
+    if kind in ("onnx", "hybrid") and arg:
         try:
             arg = str(resolve_policy(arg))
         except FileNotFoundError as err:
             raise ValueError(str(err)) from err
     if kind == "onnx":
-        if not arg:
-            raise ValueError("onnx controller needs a path: onnx:PATH")
         return OnnxPolicyController(arg)
     if kind == "model":
         from hybrid_recovery.getup.controllers import ModelController
@@ -133,7 +129,7 @@ def make_controller(spec: str):
         return GroundHybridController(arg)
     if kind == "qp":
         try:
-            from hybrid_recovery.control import eval_controller
+            from hybrid_recovery.evaluation.model_controllers import eval_controller
         except ImportError as err:
             raise ValueError(f"controller '{kind}' is not available: {err}") from err
         return eval_controller(kind, arg or None)

@@ -19,13 +19,13 @@ import numpy as np
 from hybrid_recovery.control.policy_controller import pd_torque
 from hybrid_recovery.control.supervisor import HybridSupervisor
 from hybrid_recovery.control.torque_model import load_torque_model
-from hybrid_recovery.deploy.limits import SafetyLimits
-from hybrid_recovery.envs.initial_states import quat_from_euler, quat_mul, seat_single
 from hybrid_recovery.evaluation.success import recovery_time, wilson_interval
 from hybrid_recovery.getup.keyframes import KEYFRAMES
 from hybrid_recovery.observation import projected_gravity
 from hybrid_recovery.policy import resolve_policy
 from hybrid_recovery.robot import constants
+from hybrid_recovery.robot.limits import SafetyLimits
+from hybrid_recovery.sim.initial_states import quat_from_euler, quat_mul, seat_single
 
 
 @dataclass(frozen=True)

@@ -1,4 +1,4 @@
-"""Markdown reports with the paper's figures (SPEC §7) from evaluation results."""
+"""Markdown reports with the paper's figures (paper §IV) from evaluation results."""
 
 from __future__ import annotations
 

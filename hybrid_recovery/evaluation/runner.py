@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import json
 import multiprocessing as mp
+import signal
 import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
 
+from hybrid_recovery.evaluation.contact import check_contact_preset
 from hybrid_recovery.evaluation.controllers import make_controller
 from hybrid_recovery.evaluation.scenario import Scenario
 from hybrid_recovery.evaluation.trial import run_trial
@@ -16,10 +18,18 @@ from hybrid_recovery.policy.description import load_policy_description
 from hybrid_recovery.policy.onnx_policy import DESCRIPTION
 
 _WORKER: dict = {}
+HEADER_KEY = "__header__"
+"""``key`` of a results file's first line, the run's description (not a trial)."""
+
+
+class EvaluationInterrupted(KeyboardInterrupt):
+    """Ctrl-C during a protocol; the finished trials are in the results file."""
 
 
 def _init_worker(controller: str, model_path: str | None, contact: str,
-                 stop_on_success: bool = False) -> None:
+                 stop_on_success: bool = False, ignore_sigint: bool = False) -> None:
+    if ignore_sigint:  # the parent alone handles Ctrl-C (one line, not one per worker)
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
     _WORKER.update(controller=make_controller(controller), model=model_path, contact=contact,
                    stop=stop_on_success)
 
@@ -30,15 +40,17 @@ def _work(scenario: Scenario) -> dict:
 
 
 def completed_keys(results: Path) -> set[str]:
-    """Keys of the trials already in ``results`` (a torn last line is ignored)."""
+    """Keys of the trials already in ``results``: not the header; a torn last line is
+    ignored."""
     if not results.is_file():
         return set()
     keys = set()
     for line in results.read_text().splitlines():
         try:
             keys.add(json.loads(line)["key"])
-        except (json.JSONDecodeError, KeyError):
+        except (json.JSONDecodeError, KeyError, TypeError):
             continue
+    keys.discard(HEADER_KEY)
     return keys
 
 
@@ -117,16 +129,23 @@ def run_protocol(scenarios: list[Scenario], controller: str, results: str | Path
     existing file is resumed only if its header is the same, since trial keys name the
     scenario, not who ran it.
 
+    Ctrl-C stops the run: every finished trial is already in the file (written and
+    flushed as it arrives), the workers are ended, and
+    :class:`EvaluationInterrupted` says how many trials the file holds.
+
     Returns:
         All result rows of the file (old and new).
 
     Raises:
-        ValueError: ``results`` exists but holds another run (or no header).
+        ValueError: ``results`` exists but holds another run (or no header), or a bad
+            controller, contact preset or model; nothing is written then.
+        EvaluationInterrupted: on Ctrl-C.
     """
     results = Path(results)
+    check_contact_preset(contact)
+    built = make_controller(controller)  # fail fast on a bad spec, before any file
     results.parent.mkdir(parents=True, exist_ok=True)
-    built = make_controller(controller)  # fail fast on a bad spec, before forking
-    meta = {"key": "__header__", "controller": controller, "model": model_path,
+    meta = {"key": HEADER_KEY, "controller": controller, "model": model_path,
             "contact": contact, **(header or {})}
     if (policy := policy_provenance(built)) is not None:
         meta["policy"] = policy
@@ -147,7 +166,7 @@ def run_protocol(scenarios: list[Scenario], controller: str, results: str | Path
         else:
             pool = mp.get_context("fork").Pool(workers, _init_worker,
                                                (controller, model_path, contact,
-                                                stop_on_success))
+                                                stop_on_success, True))
             rows = pool.imap_unordered(_work, todo)
         try:
             for row in rows:
@@ -157,12 +176,18 @@ def run_protocol(scenarios: list[Scenario], controller: str, results: str | Path
                 if progress and (time.time() - shown > 1.0 or count == len(todo)):
                     _progress(count, len(todo), start, len(done))
                     shown = time.time()
+        except KeyboardInterrupt:
+            if progress and count:
+                print(file=sys.stderr)
+            raise EvaluationInterrupted(
+                f"interrupted: {len(done) + count} of {len(done) + len(todo)} trials are in "
+                f"{results}; the same command resumes") from None
         finally:
             if pool is not None:
                 pool.terminate()
     if progress and todo:
         print(file=sys.stderr)
-    return [r for r in load_results(results) if r.get("key") != "__header__"]
+    return [r for r in load_results(results) if r.get("key") != HEADER_KEY]
 
 
 def _progress(count: int, total: int, start: float, skipped: int) -> None:

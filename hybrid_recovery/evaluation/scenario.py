@@ -1,4 +1,4 @@
-"""Evaluation scenarios and the protocols that enumerate them (SPEC §7)."""
+"""Evaluation scenarios and the protocols that enumerate them (paper §IV-A)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from hybrid_recovery.envs.initial_states import POSES
+from hybrid_recovery.sim.initial_states import POSES
 
 SWEEP_POSES = ("standing", "squatting", "kneeling", "supine", "sitting")
 SWEEP_FORCES = tuple(float(f) for f in range(0, 501, 50))

@@ -1,4 +1,4 @@
-"""The paper's success criterion on a trajectory (SPEC §7) and recovery time.
+"""The paper's success criterion on a trajectory (paper §IV-A3) and recovery time.
 
 A trial succeeds when the CoM is above 0.85 m with |ḣ_c| < 0.1 m/s and torso tilt within
 72° of vertical, all holding without a break for at least 1 s. The instantaneous
@@ -46,7 +46,7 @@ def recovery_time(time: np.ndarray, height: np.ndarray, height_vel: np.ndarray,
 
 
 def stuck_low(height: np.ndarray, dt: float) -> bool:
-    """Whether the training env's stuck-low termination (SPEC §5, :class:`StuckLow` with
+    """Whether the training env's stuck-low termination (paper §IV-B, :class:`StuckLow` with
     the default :class:`EnvConfig`) would have ended this trajectory: below the upright
     height, the CoM rose less than ``stuck_rise`` above its lowest point of the last
     ``stuck_time`` seconds. The paper's ablation reports its rate (full 0.067, reduced 1.0).

@@ -11,7 +11,6 @@ import numpy as np
 
 from hybrid_recovery.dynamics.capturability import capture_point
 from hybrid_recovery.envs.config import DomainRandConfig
-from hybrid_recovery.envs.initial_states import perturb_start, seat_single, settle_pool
 from hybrid_recovery.envs.terminations import SUCCESS_TIME, upright
 from hybrid_recovery.evaluation.contact import apply_contact_preset
 from hybrid_recovery.evaluation.scenario import Scenario, check_pose
@@ -20,6 +19,7 @@ from hybrid_recovery.evaluation.success import recovery_time, stuck_low
 from hybrid_recovery.observation import projected_gravity
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.mjcf import load_mjmodel
+from hybrid_recovery.sim.initial_states import perturb_start, seat_single, settle_pool
 
 RECORD_DT = 0.02
 """Sampling period of the recorded trace [s] (50 Hz, the control rate)."""
@@ -153,11 +153,11 @@ def run_trial(controller, scenario: Scenario, model_path: str | Path | None = No
         **scenario.to_dict(), "key": scenario.key, "controller": controller.name,
         "model": path or "own", "contact": contact,
         "success": t_rec is not None, "recovery_time": t_rec,
-        "standing_at_end": bool(com[-1, 2] > 0.85),
+        "standing_at_end": bool(com[-1, 2] > constants.UPRIGHT_COM_HEIGHT),
         "fell": bool((com[:, 2] < 0.5).any()),
         "stuck_low": stuck_low(com[:, 2], RECORD_DT),
         "peak_torque": peak_torque,
-        "time_low": float((com[:, 2] < 0.85).sum() * RECORD_DT),
+        "time_low": float((com[:, 2] < constants.UPRIGHT_COM_HEIGHT).sum() * RECORD_DT),
         "strategy": label_strategy(arrays, scenario.push_time if scenario.force > 0 else None),
         "not_applicable": bool(info.pop("not_applicable", False)),
         "controller_info": info,

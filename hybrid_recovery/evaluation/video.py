@@ -13,11 +13,12 @@ def render_trial(controller, scenario: Scenario, path: str | Path, seconds: floa
                  fps: int = 25, model_path: str | None = None) -> Path:
     """Runs ``scenario`` with ``controller`` and writes its video to ``path``.
 
-    Needs an OpenGL context (``MUJOCO_GL=egl`` or ``osmesa`` set before mujoco is imported).
+    Drawn with OpenGL where a context can be made, else in software
+    (:func:`hybrid_recovery.sim.render.renderer_backend` says which).
     """
     import imageio.v2 as imageio
 
-    from hybrid_recovery.envs.render import BalanceRenderer, balance_overlay
+    from hybrid_recovery.sim.render import BalanceRenderer, balance_overlay
 
     every = max(1, round(1.0 / (fps * RECORD_DT)))
     renderer = BalanceRenderer(model_path)

@@ -17,11 +17,11 @@ import numpy as np
 
 from hybrid_recovery.control.diagnostics import Event
 from hybrid_recovery.control.policy_controller import pd_torque
-from hybrid_recovery.deploy.limits import SafetyLimits
 from hybrid_recovery.getup.ground_state import GROUND_STATES, classify, read_ground_pose
 from hybrid_recovery.getup.keyframes import KEYFRAMES, mirror
 from hybrid_recovery.getup.moves import MOVES, NEXT_MOVE, Move
 from hybrid_recovery.robot import constants
+from hybrid_recovery.robot.limits import SafetyLimits
 
 MOVING, ARRIVED, STUCK = "moving", "arrived", "stuck"
 

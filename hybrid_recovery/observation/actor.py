@@ -1,4 +1,4 @@
-"""Actor observation o_t (SPEC §2): proprioception measurable on the robot.
+"""Actor observation o_t (paper §III-C): proprioception measurable on the robot.
 
 The terms, in order, with their widths (87 in all); angular velocity and gravity are
 those of the torso IMU, in the torso frame:

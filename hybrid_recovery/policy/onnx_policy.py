@@ -14,8 +14,8 @@ from pathlib import Path
 import numpy as np
 
 from hybrid_recovery.observation import ACTOR_OBS_DIM
-from hybrid_recovery.policy.action import TARGET_RANGE_FACTOR
 from hybrid_recovery.policy.description import load_policy_description
+from hybrid_recovery.robot.action import TARGET_RANGE_FACTOR
 from hybrid_recovery.robot.constants import NUM_JOINTS
 
 DESCRIPTION = "policy.json"

@@ -20,10 +20,16 @@ def resolve_policy(policy: str | Path) -> Path:
     """``policy`` as a path; ``"shipped"`` names :data:`SHIPPED_POLICY`.
 
     Raises:
-        FileNotFoundError: ``"shipped"`` when no policy is shipped.
+        FileNotFoundError: ``"shipped"`` when no policy is shipped; ``policy directory
+            not found: DIR`` (or ``ONNX policy not found: FILE.onnx``) for a path that
+            does not exist.
     """
     if str(policy) != SHIPPED:
-        return Path(policy)
+        path = Path(policy)
+        if not path.exists():
+            kind = "ONNX policy" if path.suffix == ".onnx" else "policy directory"
+            raise FileNotFoundError(f"{kind} not found: {policy}")
+        return path
     if not is_shipped():
         raise FileNotFoundError(
             f"no policy is shipped (no policy.onnx in {SHIPPED_POLICY}); train and export "

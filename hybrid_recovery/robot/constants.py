@@ -87,6 +87,11 @@ _RIGHT_ARM_POSE = (0.2, -0.2, 0.0, 0.6, 0.0, 0.0, 0.0)
 DEFAULT_JOINT_POS = np.array(_LEG_POSE * 2 + (0.0,) + _LEFT_ARM_POSE + _RIGHT_ARM_POSE)
 """Default standing pose q* [rad], shape (27,): the action origin of the policy."""
 
+UPRIGHT_COM_HEIGHT = 0.85
+"""CoM height h_c above which the robot counts as up [m]: the paper's success criterion
+(arXiv 2603.08619, Sec. IV), the environment's stuck-low and success checks, the
+evaluation, sim-to-sim and the supervisor's hand-back to the QP."""
+
 DEFAULT_BASE_HEIGHT = 1.015
 """Pelvis height above the ground in the default standing pose [m] (feet flat).
 

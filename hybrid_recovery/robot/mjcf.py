@@ -53,12 +53,16 @@ def load_spec(
 
     Raises:
         FileNotFoundError: The file does not exist.
-        ValueError: A joint of ``constants.JOINT_NAMES`` is not in the file.
+        ValueError: The file is not valid MJCF, or a joint of ``constants.JOINT_NAMES``
+            is not in it (the message names the file).
     """
     path = H1_2_MJCF if path is None else Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"H1-2 MJCF not found: {path}")
-    spec = mujoco.MjSpec.from_file(str(path))
+    try:
+        spec = mujoco.MjSpec.from_file(str(path))
+    except ValueError as err:  # MuJoCo's XML error does not name the file
+        raise ValueError(f"cannot parse H1-2 MJCF {path}: {err}") from None
     joint_names = {joint.name for joint in spec.joints}
     for name in constants.JOINT_NAMES:
         if name not in joint_names:
@@ -82,8 +86,16 @@ def load_mjmodel(
     actuators: bool = True,
     timestep: float | None = None,
 ) -> mujoco.MjModel:
-    """Compiles :func:`load_spec` (see there for the arguments and errors)."""
-    return load_spec(path, floor=floor, actuators=actuators, timestep=timestep).compile()
+    """Compiles :func:`load_spec` (see there for the arguments and errors).
+
+    Raises:
+        ValueError: Also when MuJoCo cannot compile the file (the message names it).
+    """
+    spec = load_spec(path, floor=floor, actuators=actuators, timestep=timestep)
+    try:
+        return spec.compile()
+    except ValueError as err:
+        raise ValueError(f"cannot compile H1-2 MJCF {path or H1_2_MJCF}: {err}") from None
 
 
 def default_qpos(model: mujoco.MjModel) -> np.ndarray:

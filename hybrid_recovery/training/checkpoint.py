@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import json
 import os
+import sys
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -13,6 +15,8 @@ from hybrid_recovery.policy.description import check_meta
 
 LATEST = "latest.pt"
 """File name of the newest checkpoint in a run directory."""
+RUN_CONFIG = "config.json"
+"""File name of a run's resolved settings (train and env configs, amendments)."""
 
 
 def atomic_save(obj: Any, path: str | Path) -> None:
@@ -25,6 +29,21 @@ def atomic_save(obj: Any, path: str | Path) -> None:
     try:
         with os.fdopen(fd, "wb") as handle:
             torch.save(obj, handle)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def atomic_write_text(text: str, path: str | Path) -> None:
+    """Writes ``text`` to a temporary file next to ``path``, fsync, then renames it."""
+    path = Path(path)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w") as handle:
+            handle.write(text)
             handle.flush()
             os.fsync(handle.fileno())
         os.replace(tmp, path)
@@ -52,4 +71,57 @@ def load_checkpoint(path: str | Path) -> dict:
     if meta is None:
         raise ValueError(f"checkpoint {path} was not written by hybrid_recovery (no infos.meta)")
     check_meta(meta, str(path))
+    return data
+
+
+def numbered_checkpoints(run_dir: str | Path) -> list[Path]:
+    """The run's ``model_<it>.pt`` files, oldest iteration first."""
+    found = [p for p in Path(run_dir).glob("model_*.pt") if p.stem[6:].isdigit()]
+    return sorted(found, key=lambda p: int(p.stem[6:]))
+
+
+def load_latest(run_dir: str | Path) -> tuple[dict, Path]:
+    """The newest intact checkpoint of a run: ``latest.pt``, else (with a warning on
+    stderr) the newest ``model_<it>.pt`` that loads.
+
+    Returns:
+        (checkpoint, the file it came from).
+
+    Raises:
+        FileNotFoundError: no checkpoint at all in ``run_dir``.
+        ValueError: none that loads; the message names each file and why.
+    """
+    run_dir = Path(run_dir)
+    candidates = [run_dir / LATEST, *reversed(numbered_checkpoints(run_dir))]
+    problems = []
+    for path in candidates:
+        try:
+            data = load_checkpoint(path)
+        except (FileNotFoundError, ValueError) as err:
+            problems.append(f"{path.name}: {err}")
+            continue
+        if path.name != LATEST:
+            print(f"warning: {problems[0]}; using {path} instead", file=sys.stderr, flush=True)
+        return data, path
+    if len(candidates) == 1 and not candidates[0].is_file():
+        raise FileNotFoundError(f"no checkpoint in {run_dir} (no {LATEST}, no model_*.pt)")
+    raise ValueError(f"no intact checkpoint in {run_dir}: " + "; ".join(problems))
+
+
+def read_run_config(run_dir: str | Path) -> dict:
+    """A run's ``config.json``.
+
+    Raises:
+        FileNotFoundError: no such file.
+        ValueError: the file is damaged (not a JSON object); the message names it.
+    """
+    path = Path(run_dir) / RUN_CONFIG
+    if not path.is_file():
+        raise FileNotFoundError(f"run settings not found: {path}")
+    try:
+        data = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as err:
+        raise ValueError(f"run settings {path} are damaged (not valid JSON: {err})") from None
+    if not isinstance(data, dict) or not isinstance(data.get("train_config"), dict):
+        raise ValueError(f"run settings {path} are damaged (no train_config object)")
     return data

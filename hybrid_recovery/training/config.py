@@ -1,14 +1,16 @@
-"""Typed training configuration (SPEC §1) and its rsl-rl-lib 5 runner dictionary."""
+"""Typed training configuration (paper §III-B) and its rsl-rl-lib 5 runner dictionary."""
 
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field, fields, replace
 from typing import Any
 
+from hybrid_recovery.envs.removed import drop_removed
+
 
 @dataclass
 class PPOConfig:
-    """PPO hyperparameters: the paper's (SPEC §1) where it gives them."""
+    """PPO hyperparameters: the paper's (paper §III-B) where it gives them."""
 
     clip_param: float = 0.2
     gamma: float = 0.99
@@ -57,10 +59,13 @@ class TrainConfig:
 
 
 def train_config_from_dict(data: dict[str, Any]) -> TrainConfig:
-    """The TrainConfig saved in a run's ``config.json`` (``train_config``).
+    """The TrainConfig saved in a run's ``config.json`` (``train_config``); environment
+    options removed since (:data:`hybrid_recovery.envs.removed.REMOVED`) are dropped from
+    its ``env_overrides`` where they hold their neutral values.
 
     Raises:
         KeyError: naming an unknown key.
+        ValueError: a removed environment option set away from its neutral value.
     """
     data = dict(data)
     for keys, cls, where in ((set(data) - {"ppo"}, TrainConfig, "train_config"),
@@ -72,6 +77,8 @@ def train_config_from_dict(data: dict[str, Any]) -> TrainConfig:
     ppo = PPOConfig(**data.pop("ppo", {}))
     if "hidden_dims" in data:
         data["hidden_dims"] = tuple(data["hidden_dims"])
+    if "env_overrides" in data:
+        data["env_overrides"] = drop_removed(data["env_overrides"])
     return TrainConfig(ppo=ppo, **data)
 
 

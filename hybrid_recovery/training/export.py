@@ -13,7 +13,7 @@ from tensordict import TensorDict
 from hybrid_recovery.observation import ACTOR_OBS_DIM, ACTOR_TERMS
 from hybrid_recovery.policy.description import POLICY_FORMAT, load_policy_description
 from hybrid_recovery.robot import constants
-from hybrid_recovery.training.checkpoint import LATEST, load_checkpoint
+from hybrid_recovery.training.checkpoint import load_checkpoint, load_latest
 from hybrid_recovery.training.record import plot_curves, training_record
 
 __all__ = ["POLICY_FORMAT", "actor_from_checkpoint", "export_policy", "load_policy_description",
@@ -65,14 +65,16 @@ def export_policy(run_dir: str | Path, out_dir: str | Path | None = None,
                   history: Sequence[str | Path] = ()) -> Path:
     """Writes ``policy.onnx`` (+ ``policy.onnx.data`` if torch splits the weights),
     ``policy.json`` and the training record (``training_record.json``, ``curves.png``)
-    for the newest checkpoint of ``run_dir``. ``history``: the runs ``run_dir`` was forked
-    from, oldest first; the record's curves then start at the lineage's root.
+    for the newest checkpoint of ``run_dir`` (``latest.pt``, else the newest intact
+    ``model_<it>.pt``, with a warning) or ``checkpoint``. ``history``: the runs
+    ``run_dir`` was forked from, oldest first; the record's curves then start at the
+    lineage's root.
 
     Returns:
         The output directory.
     """
     run_dir = Path(run_dir)
-    data = load_checkpoint(Path(checkpoint) if checkpoint else run_dir / LATEST)
+    data = load_checkpoint(checkpoint) if checkpoint else load_latest(run_dir)[0]
     out = Path(out_dir) if out_dir else run_dir / "export"
     out.mkdir(parents=True, exist_ok=True)
     actor = actor_from_checkpoint(data)

@@ -1,9 +1,8 @@
 """Probes of a run's actor in its own training env: deterministic, unassisted episodes
-from chosen start states (used by the scripts in ``training/``)."""
+from chosen start states (the research scripts build on these)."""
 
 from __future__ import annotations
 
-import argparse
 import json
 from pathlib import Path
 
@@ -12,23 +11,11 @@ import torch
 from tensordict import TensorDict
 
 from hybrid_recovery.envs import RecoveryEnv, apply_overrides
-from hybrid_recovery.envs.initial_states import POSES
+from hybrid_recovery.sim.initial_states import POSES
 from hybrid_recovery.training.checkpoint import LATEST, load_checkpoint
 from hybrid_recovery.training.config import train_config_from_dict
 from hybrid_recovery.training.export import actor_from_checkpoint
 from hybrid_recovery.training.runner import make_env_config
-
-
-def bridge_probe_parser(description: str) -> argparse.ArgumentParser:
-    """Arguments of the bridge probes: runs, --levels K, --envs, --source, --target, --seed."""
-    parser = argparse.ArgumentParser(description=description)
-    parser.add_argument("runs", type=Path, nargs="+")
-    parser.add_argument("--levels", type=int, default=8)
-    parser.add_argument("--envs", type=int, default=64, help="episodes per level and run")
-    parser.add_argument("--source", default="half_kneeling")
-    parser.add_argument("--target", default="kneeling")
-    parser.add_argument("--seed", type=int, default=7)
-    return parser
 
 
 def heading_xy(xmat: np.ndarray) -> np.ndarray:
@@ -69,10 +56,10 @@ def training_env(run: Path, num_envs: int, seed: int,
 def bridge_env(run: Path, num_envs: int, seed: int, levels: int, source: str,
                target: str) -> tuple[RecoveryEnv, torch.nn.Module, dict]:
     """``run``'s training env with one bridge, ``source`` → ``target`` in ``levels`` steps,
-    every start drawn for ``target`` at the bridge's current level (none mixed) and no
+    every start drawn for ``target`` at the bridge's current level and no
     assistance; with the run's latest actor and checkpoint."""
     env, data = training_env(run, num_envs, seed, {
-        "bridge.levels": levels, "bridge.pairs": [[source, target]], "bridge.mix": 0.0,
+        "bridge.levels": levels, "bridge.pairs": [[source, target]],
         "pose_weights": {target: 1.0}})
     env.assist.fraction = 0.0
     return env, actor_from_checkpoint(data), data

@@ -6,6 +6,7 @@ import dataclasses
 import json
 import subprocess
 import time
+from collections.abc import Collection
 from pathlib import Path
 
 import torch
@@ -15,7 +16,16 @@ from hybrid_recovery.envs import RecoveryEnv, apply_overrides, default_config
 from hybrid_recovery.envs.config import EnvConfig
 from hybrid_recovery.observation import ACTOR_OBS_DIM, ACTOR_TERMS
 from hybrid_recovery.robot.constants import JOINT_NAMES
-from hybrid_recovery.training.checkpoint import LATEST, atomic_save, load_checkpoint
+from hybrid_recovery.training.checkpoint import (
+    LATEST,
+    RUN_CONFIG,
+    atomic_save,
+    atomic_write_text,
+    load_checkpoint,
+    load_latest,
+    numbered_checkpoints,
+    read_run_config,
+)
 from hybrid_recovery.training.config import (
     TrainConfig,
     amend_train_config,
@@ -57,8 +67,7 @@ class RecoveryRunner(OnPolicyRunner):
         atomic_save(saved, path)
         run = Path(path).parent
         atomic_save(saved, run / LATEST)
-        numbered = sorted(run.glob("model_*.pt"), key=lambda p: int(p.stem.split("_")[1]))
-        for old in numbered[:-self.keep]:
+        for old in numbered_checkpoints(run)[:-self.keep]:
             old.unlink(missing_ok=True)
 
     def load_run(self, path: Path) -> None:
@@ -102,96 +111,113 @@ def policy_meta(cfg: TrainConfig, env_cfg: EnvConfig, critic_dim: int) -> dict:
             "train_config": dataclasses.asdict(cfg), "env_config": dataclasses.asdict(env_cfg)}
 
 
-def _resumed_config(run_dir: Path, cfg: TrainConfig) -> TrainConfig:
-    """The run's own saved TrainConfig (a resume continues the same run), keeping only
-    ``iterations`` and ``num_threads`` from ``cfg``."""
-    path = run_dir / "config.json"
-    if not path.is_file():
+_KEPT_ON_RESUME = ("iterations", "num_threads")
+"""TrainConfig fields a resume takes from the options given now (when given)."""
+_OPTION = {"env_overrides": "--set", "ppo": "--symmetry"}
+"""The ``train`` option of a TrainConfig field, where it is not ``--<field-name>``."""
+
+
+def _resumed_config(run_dir: Path, cfg: TrainConfig,
+                    given: Collection[str] | None = None) -> TrainConfig:
+    """The run's own saved TrainConfig (a resume continues the same run), taking from
+    ``cfg`` only ``num_threads`` and, where given, ``iterations`` (else the run's own
+    target); the other ``given`` fields that differ from the run's are named as ignored.
+
+    Args:
+        given: TrainConfig field names the caller set (the CLI: the options given);
+            None: every field.
+    """
+    if not (run_dir / RUN_CONFIG).is_file():
         return cfg
-    saved = train_config_from_dict(json.loads(path.read_text())["train_config"])
-    saved.iterations, saved.num_threads = cfg.iterations, cfg.num_threads
-    if dataclasses.replace(saved, iterations=0, num_threads=0) != \
-            dataclasses.replace(cfg, iterations=0, num_threads=0):
-        print(f"[hybrid-recovery] resuming with the run's saved settings ({path}); "
-              "options given now other than iterations and threads are ignored", flush=True)
+    saved = train_config_from_dict(read_run_config(run_dir)["train_config"])
+    given = {f.name for f in dataclasses.fields(TrainConfig)} if given is None else set(given)
+    saved.num_threads = cfg.num_threads
+    if "iterations" in given:
+        saved.iterations = cfg.iterations
+    ignored = sorted(_OPTION.get(name, "--" + name.replace("_", "-"))
+                     for name in given - set(_KEPT_ON_RESUME)
+                     if getattr(cfg, name) != getattr(saved, name))
+    if ignored:
+        print(f"[hybrid-recovery] resuming with the run's saved settings "
+              f"({run_dir / RUN_CONFIG}); these options given now are ignored: "
+              f"{', '.join(ignored)}", flush=True)
     return saved
 
 
-def reference_amendments(reference: str | Path) -> list[dict]:
-    """The amendments of a reference run (its directory or its ``config.json``).
-
-    Raises:
-        FileNotFoundError: no such run or file.
-    """
-    path = Path(reference)
-    path = path / "config.json" if path.is_dir() else path
-    if not path.is_file():
-        raise FileNotFoundError(f"no reference run config at {path}")
-    return list(json.loads(path.read_text()).get("amendments", []))
+_RUN_FILES = (LATEST, RUN_CONFIG, "model_*.pt", "events.out.tfevents.*")
+"""What a training run writes into its directory (``--force`` removes these)."""
 
 
-def _replayed(amendments: list[dict], reference: str) -> int:
-    return sum(1 for a in amendments if a.get("from") == reference)
+def _run_files(run_dir: Path) -> list[Path]:
+    return sorted(p for pattern in _RUN_FILES for p in run_dir.glob(pattern))
 
 
 def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
-          amend: dict | None = None, follow: str | Path | None = None) -> RecoveryRunner:
+          amend: dict | None = None, force: bool = False,
+          given: Collection[str] | None = None) -> RecoveryRunner:
     """Trains (or resumes) a run in ``run_dir`` up to ``cfg.iterations`` iterations.
 
     The run directory holds ``config.json`` (resolved train and env configs, git commit,
-    amendments), TensorBoard logs, ``model_<it>.pt`` checkpoints and ``latest.pt``.
+    amendments), TensorBoard logs, ``model_<it>.pt`` checkpoints and ``latest.pt``. Every
+    setting is checked before a file is written.
 
     Args:
         amend: changes to a resumed run's saved settings (``ppo.<field>`` or dotted
             EnvConfig keys, see :func:`amend_train_config`). Each amendment is kept in
             ``config.json`` and the checkpoints' metadata with the iteration it starts at,
             so a run's history stays readable.
-        follow: a reference run (directory or ``config.json``) whose amendments are
-            replayed here at the iterations where the reference made them, so that an
-            ablation keeps the reference's recipe; kept in ``config.json``, so a resume
-            goes on following it.
+        force: start over in a directory that holds a run: its checkpoints, settings
+            and TensorBoard logs are removed (only once the new settings are checked).
+        given: with ``resume``, the TrainConfig fields the caller set (see
+            :func:`_resumed_config`); None: all.
 
     Raises:
-        FileNotFoundError: resuming a directory without ``latest.pt``.
-        ValueError: ``amend`` without ``resume``.
+        FileExistsError: a new run (no ``resume``, no ``force``) in a directory that
+            holds one; nothing is touched.
+        FileNotFoundError: resuming a directory without a checkpoint.
+        ValueError: ``amend`` without ``resume``, ``resume`` with ``force``, no intact
+            checkpoint, a damaged ``config.json`` (named), or a bad setting.
     """
     run_dir = Path(run_dir)
-    latest = run_dir / LATEST
     if amend and not resume:
         raise ValueError("amendments change a resumed run; give a new run its settings "
                          "as options instead")
-    if resume and not latest.is_file():
-        raise FileNotFoundError(f"cannot resume: no {LATEST} in {run_dir}")
-    amendments: list[dict] = []
-    saved_meta = json.loads((run_dir / "config.json").read_text()) \
-        if resume and (run_dir / "config.json").is_file() else {}
-    follow = str(follow) if follow is not None else saved_meta.get("follow")
-    replay = reference_amendments(follow) if follow else []
-    start = int(load_checkpoint(latest)["iter"]) + 1 if resume else 0
+    if resume and force:
+        raise ValueError("--resume continues the run and --force starts it over: give one")
+    existing = _run_files(run_dir)
+    if existing and not resume and not force:
+        raise FileExistsError(
+            f"{run_dir} already holds a training run ({existing[0].name}); continue it with "
+            "--resume or start it over with --force")
+    latest = run_dir / LATEST
     if resume:
-        cfg = _resumed_config(run_dir, cfg)
+        try:
+            checkpoint, latest = load_latest(run_dir)
+        except FileNotFoundError as err:
+            raise FileNotFoundError(f"cannot resume: {err}") from None
+    amendments: list[dict] = []
+    saved_meta = read_run_config(run_dir) \
+        if resume and (run_dir / RUN_CONFIG).is_file() else {}
+    start = int(checkpoint["iter"]) + 1 if resume else 0
+    if resume:
+        cfg = _resumed_config(run_dir, cfg, given)
         amendments = saved_meta.get("amendments", [])
-        due = [a for a in replay[_replayed(amendments, str(follow)):] if a["iteration"] <= start]
-        for a in due:  # the reference's amendments this run has reached
-            cfg = amend_train_config(cfg, a["changes"])
-            amendments.append({"iteration": start, "changes": dict(a["changes"]),
-                               "git_commit": _git_commit(), "from": follow})
-            print(f"[hybrid-recovery] replaying {follow}'s amendment of iteration "
-                  f"{a['iteration']}: {a['changes']}", flush=True)
         if amend:
             cfg = amend_train_config(cfg, amend)
             amendments.append({"iteration": start, "changes": dict(amend),
                                "git_commit": _git_commit()})
             print(f"[hybrid-recovery] amending the run's settings: {amend}", flush=True)
-    run_dir.mkdir(parents=True, exist_ok=True)
+    env_cfg = make_env_config(cfg)  # every setting checked before a file is written
     torch.manual_seed(cfg.seed)
     torch.set_num_threads(cfg.num_threads)
-    env_cfg = make_env_config(cfg)
     env = RecoveryEnv(env_cfg)
+    if force and not resume:
+        for old in existing:
+            old.unlink()
+    run_dir.mkdir(parents=True, exist_ok=True)
     critic_dim = int(env.get_observations()["critic"].shape[1])
-    meta = {**policy_meta(cfg, env_cfg, critic_dim), "amendments": amendments,
-            **({"follow": follow} if follow else {})}
-    (run_dir / "config.json").write_text(json.dumps(meta, indent=2, default=str))
+    meta = {**policy_meta(cfg, env_cfg, critic_dim), "amendments": amendments}
+    atomic_write_text(json.dumps(meta, indent=2, default=str), run_dir / RUN_CONFIG)
     runner = RecoveryRunner(env, runner_dict(cfg), str(run_dir), meta, cfg.keep_checkpoints)
     if resume:
         runner.load_run(latest)
@@ -200,10 +226,6 @@ def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
         print(f"[hybrid-recovery] resumed {run_dir} at iteration "
               f"{runner.current_learning_iteration}, curriculum stage "
               f"{env.curriculum.stage} level {env.curriculum.level:.2f}", flush=True)
-    pending = [a["iteration"] for a in replay[_replayed(amendments, str(follow)):]]
-    stop = min([cfg.iterations, *pending])
-    if stop > runner.current_learning_iteration:
-        runner.learn(stop - runner.current_learning_iteration)
-    if stop < cfg.iterations:  # at the reference's next amendment: resume with it
-        return train(run_dir, cfg, resume=True)
+    if cfg.iterations > runner.current_learning_iteration:
+        runner.learn(cfg.iterations - runner.current_learning_iteration)
     return runner

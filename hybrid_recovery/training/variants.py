@@ -1,11 +1,43 @@
-"""Training variants: the paper's full and reduced policies and single-factor ablations."""
+"""Training variants: the shipped recipe, the paper's full and reduced policies, ablations.
+
+A variant is a set of EnvConfig overrides and, where it needs them, TrainConfig settings
+(:data:`VARIANT_TRAIN`); ``hybrid-recovery train --variant NAME`` starts a run of it.
+"""
 
 from __future__ import annotations
 
+from dataclasses import asdict, fields, replace
 from typing import Any
+
+from hybrid_recovery.training.config import PPOConfig, TrainConfig
+
+RECOVERY_ENV: dict[str, Any] = {
+    "pose_weights": {"standing": 0.5, "squatting": 0.5, "kneeling": 1.5, "half_kneeling": 1.0,
+                     "sitting": 3, "supine": 2, "prone": 0.125},
+    "rewards.w_action_rate": 0.05,
+    "rewards.w_feet": 2.0,
+    "curriculum.advance_poses": ["standing", "squatting", "kneeling"],
+    "assist.fraction": 0.8,
+    "assist.decay": 0.9,
+    "assist.max_tilt": 3.1416,
+    "assist.max_height": 0.85,
+    "assist.poses": ["prone"],
+    "bridge.levels": 16,
+    "bridge.pairs": [["squatting", "sitting"], ["squatting", "supine"]],
+    "bridge.advance": 0.3,
+    "bridge.retreat": 0.1,
+    "bridge.window": 128,
+}
+"""The shipped policy's environment (``models/policies/h1_2_recovery``, its record's
+configuration with every amendment applied): beyond the paper's setting, pose weights
+toward the hard poses, the flat-feet reward r_feet, a torso pull of 0.8 m g for prone
+starts annealed by their stand-ups, and start-pose bridges from squatting to sitting and
+supine in 16 levels."""
 
 VARIANTS: dict[str, dict[str, Any]] = {
     "full": {},
+    # the shipped recipe
+    "recovery": RECOVERY_ENV,
     # the paper's ablation: all three removed together
     "reduced": {"privileged_critic": False, "rewards.use_capture_point": False,
                 "curriculum.enabled": False},
@@ -15,6 +47,12 @@ VARIANTS: dict[str, dict[str, Any]] = {
     "no_curriculum": {"curriculum.enabled": False},
 }
 """Variant name → EnvConfig overrides."""
+
+VARIANT_TRAIN: dict[str, dict[str, Any]] = {
+    "recovery": {"init_std": 0.5, "max_std": 0.6, "save_interval": 25},
+}
+"""Variant name → TrainConfig settings other than the defaults (``ppo.<field>`` for PPO);
+absent: the defaults."""
 
 
 def variant_overrides(name: str) -> dict[str, Any]:
@@ -26,3 +64,28 @@ def variant_overrides(name: str) -> dict[str, Any]:
     if name not in VARIANTS:
         raise KeyError(f"unknown variant '{name}': choose one of {sorted(VARIANTS)}")
     return dict(VARIANTS[name])
+
+
+def variant_train_config(name: str, **settings: Any) -> TrainConfig:
+    """The TrainConfig of variant ``name``: defaults, the variant's settings
+    (:data:`VARIANT_TRAIN`), then ``settings`` (TrainConfig fields; None leaves a field
+    as the variant has it).
+
+    Raises:
+        KeyError: an unknown variant or TrainConfig field.
+    """
+    variant_overrides(name)  # checks the name
+    names = {f.name for f in fields(TrainConfig)}
+    given = {k: v for k, v in settings.items() if v is not None}
+    unknown = sorted(set(given) - names)
+    if unknown:
+        raise KeyError(f"unknown TrainConfig fields {unknown}; known: {sorted(names)}")
+    ppo = asdict(PPOConfig())
+    plain = {}
+    for key, value in VARIANT_TRAIN.get(name, {}).items():
+        if key.startswith("ppo."):
+            ppo[key.removeprefix("ppo.")] = value
+        else:
+            plain[key] = value
+    cfg = replace(TrainConfig(variant=name), ppo=PPOConfig(**ppo), **plain)
+    return replace(cfg, **given)

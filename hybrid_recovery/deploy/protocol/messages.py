@@ -1,9 +1,13 @@
 """The Unitree ``unitree_hg`` low-level messages ``LowCmd_`` and ``LowState_`` (H1-2, G1).
 
 Field names, order and types follow Unitree's IDL (``unitree_hg::msg::dds_``), so a DDS
-peer using Unitree's SDK recognises the types. The classes are cyclonedds IDL dataclasses
-when cyclonedds is installed (optional extra ``deploy``); without it they are plain
-dataclasses with the same fields, enough to build, pack and CRC messages offline.
+peer using Unitree's SDK recognises the types. The 8-bit fields are ``octet``
+(``types.byte``), as the C++ SDK (``unitree_sdk2``) declares them: with cyclonedds 11,
+``types.uint8`` is another XTypes kind (``TK_UINT8``, not ``TK_BYTE``), and a C++ reader
+would never match a writer of these types. Both serialise to the same bytes. The classes
+are cyclonedds IDL dataclasses when cyclonedds is installed (optional extra ``deploy``);
+without it they are plain dataclasses with the same fields, enough to build, pack and
+CRC messages offline.
 
 Units: joint positions ``q`` rad, velocities ``dq`` rad/s, torques ``tau`` N·m, gains
 ``kp`` N·m/rad and ``kd`` N·m·s/rad; IMU ``quaternion`` (w, x, y, z), ``gyroscope`` rad/s,
@@ -37,6 +41,7 @@ except ImportError:  # cyclonedds is the optional extra `deploy`: plain dataclas
     class types:  # type: ignore[no-redef]
         """Stand-in for ``cyclonedds.idl.types``: Python types of the IDL primitives."""
 
+        byte = int
         uint8 = int
         int16 = int
         uint32 = int
@@ -67,7 +72,7 @@ _MODULE = "unitree_hg.msg.dds_"  # cyclonedds writes '.' as '::' on the wire
 class MotorCmd_(IdlStruct, typename=f"{_MODULE}.MotorCmd_"):
     """One motor's command: τ = tau + kp (q − q_m) + kd (dq − dq_m)."""
 
-    mode: types.uint8
+    mode: types.byte
     q: types.float32
     dq: types.float32
     tau: types.float32
@@ -82,8 +87,8 @@ class MotorCmd_(IdlStruct, typename=f"{_MODULE}.MotorCmd_"):
 class LowCmd_(IdlStruct, typename=f"{_MODULE}.LowCmd_"):
     """Low-level command, topic ``rt/lowcmd``; ``motor_cmd`` has 35 entries."""
 
-    mode_pr: types.uint8
-    mode_machine: types.uint8
+    mode_pr: types.byte
+    mode_machine: types.byte
     motor_cmd: Annotated[list[MotorCmd_], types.array(MotorCmd_, NUM_MOTORS)]
     reserve: Annotated[list[int], types.array(types.uint32, 4)]
     crc: types.uint32
@@ -108,7 +113,7 @@ class IMUState_(IdlStruct, typename=f"{_MODULE}.IMUState_"):
 class MotorState_(IdlStruct, typename=f"{_MODULE}.MotorState_"):
     """One motor's measured state: q rad, dq rad/s, ddq rad/s², tau_est N·m, vol V."""
 
-    mode: types.uint8
+    mode: types.byte
     q: types.float32
     dq: types.float32
     ddq: types.float32
@@ -127,16 +132,16 @@ class LowState_(IdlStruct, typename=f"{_MODULE}.LowState_"):
     """Low-level state, topic ``rt/lowstate``; ``motor_state`` has 35 entries.
 
     ``wireless_remote`` holds the remote's 40 raw bytes (``bytes``, as cyclonedds reads
-    ``uint8`` arrays); ``tick`` is the robot's increasing counter.
+    ``octet`` arrays); ``tick`` is the robot's increasing counter.
     """
 
     version: Annotated[list[int], types.array(types.uint32, 2)]
-    mode_pr: types.uint8
-    mode_machine: types.uint8
+    mode_pr: types.byte
+    mode_machine: types.byte
     tick: types.uint32
     imu_state: IMUState_
     motor_state: Annotated[list[MotorState_], types.array(MotorState_, NUM_MOTORS)]
-    wireless_remote: Annotated[bytes, types.array(types.uint8, 40)]
+    wireless_remote: Annotated[bytes, types.array(types.byte, 40)]
     reserve: Annotated[list[int], types.array(types.uint32, 4)]
     crc: types.uint32
 
@@ -193,7 +198,7 @@ def default_low_state() -> LowState_:
         tick=0,
         imu_state=default_imu_state(),
         motor_state=[default_motor_state() for _ in range(NUM_MOTORS)],
-        wireless_remote=bytes(40),  # cyclonedds reads uint8 arrays as bytes
+        wireless_remote=bytes(40),  # cyclonedds reads octet arrays as bytes
         reserve=[0] * 4,
         crc=0,
     )

@@ -3,17 +3,16 @@ and the target, moved toward the target as the stand-up rate allows (beyond the 
 
 The blend at level k of K is the pose with joint targets q(t) = (1 − t) q_source + t
 q_target and base pitch θ(t) likewise, t = k / K, settled from a drop like every pose of
-:mod:`hybrid_recovery.envs.initial_states`; it is mirrored when either end is.
+:mod:`hybrid_recovery.sim.initial_states`; it is mirrored when either end is.
 """
 
 from __future__ import annotations
 
-from collections import deque
-
 import numpy as np
 
 from hybrid_recovery.envs.config import BridgeConfig
-from hybrid_recovery.envs.initial_states import POSE_LIBRARY, POSES, Pose
+from hybrid_recovery.envs.outcome_window import OutcomeWindow
+from hybrid_recovery.sim.initial_states import POSE_LIBRARY, POSES, Pose
 
 
 def blend_pose(source: Pose, target: Pose, t: float) -> Pose:
@@ -47,16 +46,15 @@ class PoseBridge:
         targets = [t for _, t in pairs]
         if len(set(targets)) < len(targets):
             raise ValueError(f"bridge.pairs has a target twice: {targets}")
-        if (cfg.levels < 0 or cfg.window < 1 or not 0.0 <= cfg.retreat < cfg.advance <= 1.0
-                or not 0.0 <= cfg.mix < 1.0):
-            raise ValueError(f"bridge needs levels >= 0, window >= 1, 0 <= retreat < "
-                             f"advance <= 1 and 0 <= mix < 1; got {cfg.levels}, {cfg.window}, "
-                             f"{cfg.retreat}, {cfg.advance}, {cfg.mix}")
+        if cfg.levels < 0 or cfg.window < 1 or not 0.0 <= cfg.retreat < cfg.advance <= 1.0:
+            raise ValueError(f"bridge needs levels >= 0, window >= 1 and 0 <= retreat < "
+                             f"advance <= 1; got {cfg.levels}, {cfg.window}, {cfg.retreat}, "
+                             f"{cfg.advance}")
         self.cfg = cfg
         self.source = {t: s for s, t in pairs}
         """Source pose by target pose."""
         self.level = dict.fromkeys(targets, 0)
-        self._outcomes: dict[str, deque[bool]] = {t: deque(maxlen=cfg.window) for t in targets}
+        self._outcomes = {t: OutcomeWindow(cfg.window) for t in targets}
 
     @property
     def targets(self) -> tuple[str, ...]:
@@ -69,16 +67,6 @@ class PoseBridge:
     def blend(self, target: str) -> float:
         """t of ``target``'s current starts: 0 (the source) … 1 (the target itself)."""
         return self.level[target] / self.cfg.levels if self.active(target) else 1.0
-
-    def draw_levels(self, target: str, count: int, rng: np.random.Generator) -> np.ndarray:
-        """Levels of ``count`` new starts of an active ``target``: the current level k, or
-        with probability ``mix`` (when k > 0) one of 0 … k − 1 uniformly, (count,) int."""
-        k = self.level[target]
-        levels = np.full(count, k)
-        if k > 0 and self.cfg.mix > 0.0:
-            below = rng.random(count) < self.cfg.mix
-            levels[below] = rng.integers(k, size=int(below.sum()))
-        return levels
 
     def poses(self) -> dict[str, Pose]:
         """The blends of levels 0 … K − 1 of every bridge, by :meth:`pool_name`."""
@@ -101,12 +89,10 @@ class PoseBridge:
         if levels is not None:
             stood_up = stood_up[np.atleast_1d(levels) == self.level[target]]
         outcomes = self._outcomes[target]
-        outcomes.extend(bool(s) for s in stood_up)
-        if len(outcomes) < self.cfg.window:
-            return 0
-        rate = np.mean(outcomes)
-        step = 1 if rate >= self.cfg.advance else \
-            -1 if rate < self.cfg.retreat and self.level[target] > 0 else 0
+        outcomes.extend(stood_up)
+        step = outcomes.verdict(self.cfg.advance, self.cfg.retreat)
+        if step < 0 and self.level[target] == 0:
+            step = 0
         if step:
             outcomes.clear()
             self.level[target] += step
@@ -114,7 +100,7 @@ class PoseBridge:
 
     def state_dict(self) -> dict:
         return {"level": dict(self.level), "levels": self.cfg.levels,
-                "outcomes": {t: list(o) for t, o in self._outcomes.items()}}
+                "outcomes": {t: o.state() for t, o in self._outcomes.items()}}
 
     def load_state_dict(self, state: dict) -> None:
         """Restores the levels of the targets it names (of one bridge as
@@ -132,4 +118,4 @@ class PoseBridge:
             if saved != self.cfg.levels and saved > 0:
                 k, outcomes = int(k) * self.cfg.levels // saved, {}
             self.level[target] = min(int(k), self.cfg.levels)
-            self._outcomes[target] = deque(outcomes.get(target, []), maxlen=self.cfg.window)
+            self._outcomes[target] = OutcomeWindow(self.cfg.window, outcomes.get(target, []))

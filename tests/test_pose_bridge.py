@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from hybrid_recovery.envs import RecoveryEnv, default_config
-from hybrid_recovery.envs.bridge import PoseBridge, blend_pose
 from hybrid_recovery.envs.config import BridgeConfig
-from hybrid_recovery.envs.initial_states import POSE_LIBRARY, POSES
+from hybrid_recovery.envs.pose_bridge import PoseBridge, blend_pose
+from hybrid_recovery.sim.initial_states import POSE_LIBRARY, POSES
 from hybrid_recovery.training.checkpoint import atomic_save, load_checkpoint
 from hybrid_recovery.training.config import TrainConfig
 from hybrid_recovery.training.runner import train
@@ -100,18 +100,9 @@ def test_bridges_advance_apart_and_their_levels_are_restored():
     assert old.level == {"kneeling": 2, "sitting": 0}
 
 
-def test_mixed_starts_go_below_the_level_and_only_the_current_level_counts():
-    bridge = PoseBridge(BridgeConfig(levels=8, advance=0.5, window=4, mix=0.5))
-    rng = np.random.default_rng(0)
-    assert (bridge.draw_levels("kneeling", 50, rng) == 0).all()  # nothing below the source
+def test_only_starts_at_the_current_level_count():
+    bridge = PoseBridge(BridgeConfig(levels=8, advance=0.5, window=4))
     bridge.level["kneeling"] = 4
-    levels = bridge.draw_levels("kneeling", 4000, rng)
-    assert set(levels) == {0, 1, 2, 3, 4}
-    assert abs(np.mean(levels == 4) - 0.5) < 0.03           # 1 − mix at the current level
-    assert np.ptp(np.bincount(levels)[:4]) < 100              # the rest uniform below it
-    unmixed = PoseBridge(BridgeConfig(levels=8))
-    unmixed.level["kneeling"] = 4
-    assert (unmixed.draw_levels("kneeling", 50, rng) == 4).all()
     # rises from lower levels earn nothing: 4 of the current level's are needed
     assert not bridge.record("kneeling", np.ones(6, bool), np.array([0, 1, 2, 3, 4, 4]))
     assert bridge.record("kneeling", np.ones(3, bool), np.array([4, 4, 3]))
@@ -124,8 +115,7 @@ def test_mixed_starts_go_below_the_level_and_only_the_current_level_counts():
                                  {"pairs": (("squatting", "sitting"), ("supine", "sitting"))},
                                  {"pairs": (("squatting",),)},
                                  {"levels": -1}, {"window": 0}, {"advance": 0.0},
-                                 {"retreat": 0.3}, {"retreat": -0.1}, {"mix": 1.0},
-                                 {"mix": -0.1}])
+                                 {"retreat": 0.3}, {"retreat": -0.1}])
 def test_bad_settings_are_refused(bad):
     with pytest.raises(ValueError, match="bridge"):
         PoseBridge(BridgeConfig(**bad))
@@ -162,23 +152,6 @@ def test_the_targets_episodes_start_from_the_current_blend(env):
                                     "sitting@1/2"}
 
 
-def test_mixed_starts_come_from_the_lower_levels_pools(env):
-    ids = np.arange(env.num_envs)
-    env.bridge.cfg.mix = 0.5
-    try:
-        env.bridge.level["kneeling"] = 2  # the kneel itself: the bridge is done, not mixed
-        env._reset(ids)
-        assert (env.start_level == -1).all()
-        env.bridge.level["kneeling"] = 1
-        env._reset(ids)
-        low = env.start_level == 0
-        assert set(env.start_level) == {0, 1}
-        assert (_front_hip(env)[low] < -1.1).all()  # from the half-kneel
-        assert ((_front_hip(env)[~low] > -1.1) & (_front_hip(env)[~low] < -0.2)).all()
-    finally:
-        env.bridge.cfg.mix = 0.0
-
-
 def test_finished_target_episodes_advance_the_bridge(env):
     env.bridge.load_state_dict({"level": {"kneeling": 0, "sitting": 0}})
     ids = np.arange(env.num_envs)
@@ -192,29 +165,6 @@ def test_finished_target_episodes_advance_the_bridge(env):
     env.stood_up[:] = False
     env._episode_log(ids, dones)
     assert env.bridge.level["kneeling"] == 1
-
-
-@pytest.mark.parametrize("window", [None, 4.0])
-def test_the_targets_episodes_can_have_their_own_stuck_low_window(window):
-    cfg = default_config()
-    cfg.num_envs, cfg.num_threads, cfg.seed = 8, 1, 3
-    cfg.curriculum.enabled = False
-    cfg.pose_weights = {"kneeling": 1.0, "standing": 1.0}
-    cfg.bridge = BridgeConfig(levels=2, pairs=(("half_kneeling", "kneeling"),),
-                              stuck_time=window)
-    env = RecoveryEnv(cfg)
-    ids = np.arange(8)
-    env.start_pose[:] = np.where(ids % 2, POSES.index("kneeling"), POSES.index("standing"))
-    for detector in (env.stuck, env.stuck_bridged):
-        if detector is not None:
-            detector.reset(ids, np.full(8, 0.3))
-    first = np.full(8, np.inf)
-    for step in range(1, 301):  # 6 s still at h_c = 0.3 m
-        stuck = env._stuck_low(np.full(8, 0.3), np.zeros(8, bool))
-        first[stuck & np.isinf(first)] = step * env.dt
-    kneel = ids % 2 == 1
-    np.testing.assert_allclose(first[~kneel], 2.0)  # the other poses: the env's 2 s
-    np.testing.assert_allclose(first[kneel], 2.0 if window is None else window)
 
 
 def test_the_bridge_level_is_checkpointed_and_resumed(tmp_path):

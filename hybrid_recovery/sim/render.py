@@ -11,14 +11,15 @@ costs a few ms on a GPU and 60–100 ms on Mesa's software rasteriser):
 
 The overlay is computed from a simulation's own model and data (its randomised masses
 and contact parameters); the picture comes from a render model of the same robot with a
-textured floor and brighter light. Offscreen rendering needs ``MUJOCO_GL=egl`` (or
-``osmesa``) set before Python imports mujoco (``hybrid-recovery play`` sets ``egl``).
+textured floor and brighter light. Frames are drawn by MuJoCo's OpenGL renderer where a
+context can be made (the backend is chosen before mujoco is imported:
+``hybrid_recovery.sim.gl_backend``), else in software
+(:class:`hybrid_recovery.sim.software_renderer.SoftwareRenderer`, matplotlib).
 """
 
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -30,6 +31,8 @@ from hybrid_recovery.dynamics.capturability import capture_point
 from hybrid_recovery.dynamics.support import support_polygon
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.mjcf import FLOOR_NAME, load_spec
+from hybrid_recovery.sim.gl_backend import gl_context_works, loaded_backend
+from hybrid_recovery.sim.software_renderer import SoftwareRenderer
 
 ROBOT_ALPHA = 0.55
 """Opacity of the robot's geoms in the video."""
@@ -207,6 +210,19 @@ def render_model(model_path: str | Path | None = None, width: int = 640,
     return model
 
 
+BACKENDS = ("auto", "opengl", "software")
+"""Renderer choices: ``auto`` uses OpenGL where a context can be made, else software."""
+
+_gl_failed = False  # set when an OpenGL context failed in this process despite the probe
+
+
+def renderer_backend() -> str:
+    """What ``BalanceRenderer(backend="auto")`` draws with in this process, in words."""
+    if gl_context_works() and not _gl_failed:
+        return f"OpenGL (MUJOCO_GL={loaded_backend() or 'default'})"
+    return SoftwareRenderer.name
+
+
 class BalanceRenderer:
     """Offscreen frames of a robot state with its balance overlay, the camera following
     the CoM (exponentially smoothed, time constant ``follow_time``).
@@ -216,23 +232,44 @@ class BalanceRenderer:
         width, height: frame size [px].
         distance: camera distance [m]; azimuth, elevation: view angles [deg].
         follow_time: smoothing time constant of the tracking [s].
+        backend: ``"auto"`` (OpenGL if a context can be made, else software),
+            ``"opengl"`` or ``"software"``.
+
+    Attributes:
+        backend_name: what draws the frames, in words (``renderer_backend()``).
 
     Raises:
-        RuntimeError: no OpenGL context could be made (the message says what to set).
+        ValueError: an unknown ``backend``.
+        RuntimeError: ``backend="opengl"`` and no OpenGL context could be made.
     """
 
     def __init__(self, model_path: str | Path | None = None, width: int = 640,
                  height: int = 480, distance: float = 3.2, azimuth: float = 135.0,
-                 elevation: float = -15.0, follow_time: float = 0.3) -> None:
+                 elevation: float = -15.0, follow_time: float = 0.3,
+                 backend: str = "auto") -> None:
+        global _gl_failed
+        if backend not in BACKENDS:
+            raise ValueError(f"backend must be one of {list(BACKENDS)}, got {backend!r}")
         self.model = render_model(model_path, width, height)
         self.data = mujoco.MjData(self.model)
-        try:
-            self.renderer = mujoco.Renderer(self.model, height, width)
-        except Exception as err:  # the GL backends raise several types
-            raise RuntimeError(
-                f"cannot create an OpenGL context for offscreen rendering (MUJOCO_GL="
-                f"{os.environ.get('MUJOCO_GL', '')!r}): {err}. Set MUJOCO_GL=egl (or osmesa) "
-                "before Python imports mujoco.") from err
+        use_gl = backend == "opengl" or (backend == "auto" and gl_context_works()
+                                         and not _gl_failed)
+        self.renderer: mujoco.Renderer | SoftwareRenderer
+        if use_gl:
+            try:
+                self.renderer = mujoco.Renderer(self.model, height, width)
+                self.backend_name = f"OpenGL (MUJOCO_GL={loaded_backend() or 'default'})"
+            except Exception as err:  # the GL backends raise several types
+                if backend == "opengl":
+                    raise RuntimeError(
+                        f"cannot create an OpenGL context for offscreen rendering (MUJOCO_GL="
+                        f"{loaded_backend()!r}): {err}. Set MUJOCO_GL=egl (or "
+                        "osmesa) before Python imports mujoco.") from err
+                _gl_failed = True
+                use_gl = False
+        if not use_gl:
+            self.renderer = SoftwareRenderer(self.model, height, width)
+            self.backend_name = SoftwareRenderer.name
         self.camera = mujoco.MjvCamera()
         self.camera.type = mujoco.mjtCamera.mjCAMERA_FREE
         self.camera.distance, self.camera.azimuth = distance, azimuth

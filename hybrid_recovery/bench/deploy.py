@@ -1,4 +1,4 @@
-"""``bench-deploy``: ONNX inference latency and 50 Hz loop jitter over loopback DDS.
+"""``bench deploy``: ONNX inference latency and 50 Hz loop jitter over loopback DDS.
 
 The simulated robot runs in a second process (MuJoCo 1 kHz, ``LowState_`` at 500 Hz); this
 process runs the full controller (state machine + policy + DDS) for ``seconds``. The
@@ -22,8 +22,8 @@ from dataclasses import asdict
 from pathlib import Path
 
 from hybrid_recovery.deploy.bridge import run_controller
-from hybrid_recovery.deploy.limits import SafetyLimits
 from hybrid_recovery.deploy.state_machine import SafetyConfig
+from hybrid_recovery.robot.limits import SafetyLimits
 
 _ROBOT_CODE = (
     "import json, dataclasses, sys\n"
@@ -49,7 +49,7 @@ def bench_deploy(seconds: float = 60.0, policy_dir: str | Path | None = None,
     domain = domain_id if domain_id is not None else random.SystemRandom().randint(1, 200)
     with tempfile.TemporaryDirectory() as tmp:
         if policy_dir is None:
-            from hybrid_recovery.deploy.stand_in import write_stand_in_policy
+            from hybrid_recovery.training.stand_in import write_stand_in_policy
 
             policy_dir = write_stand_in_policy(Path(tmp) / "policy", "random")
         robot = subprocess.Popen(
@@ -85,7 +85,7 @@ def format_bench(result: dict) -> str:
     c, s = result["controller"], result["controller"]["stats"]
     r = result["robot"]
     lines = [
-        f"bench-deploy: {result['seconds']:.0f} s over loopback DDS, controller "
+        f"bench deploy: {result['seconds']:.0f} s over loopback DDS, controller "
         f"{c['scheduling']}, robot {r.get('scheduling', '?')}; load avg "
         f"{result['load']['loadavg_before'][0]:.2f} → {result['load']['loadavg_after'][0]:.2f},"
         f" CPU busy {100 * result['load']['cpu_busy_share']:.0f} % of "

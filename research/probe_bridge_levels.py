@@ -5,7 +5,7 @@ envs start from the target's pose at that level, with the run's training setting
 otherwise and the assistance off; the share that stands up (CoM above 0.85 m, torso
 within 72°, for 1 s) says how hard each blend is for each actor.
 
-    python training/probe_bridge_levels.py runs/full_se runs/full_bridge --levels 8 --envs 64
+    python research/probe_bridge_levels.py runs/run_a runs/run_b --levels 8 --envs 64
 
 ``--torque-scale S`` multiplies the hardware effort limits by S (1 ≤ S ≤ the curriculum's
 ``torque_scale_explore``) through the torque curriculum's level, the actor unchanged (the
@@ -14,12 +14,13 @@ joint-range factor moves with that level: 0.90 at 1×, 0.91 at 2× with the defa
 
 from __future__ import annotations
 
+import argparse
 import json
 from pathlib import Path
 
 import torch
 
-from hybrid_recovery.training.probe import bridge_env, bridge_probe_parser, first_episodes
+from hybrid_recovery.training.probe import bridge_env, first_episodes
 
 
 def probe(run: Path, levels: int, num_envs: int, seed: int, source: str,
@@ -41,8 +42,20 @@ def probe(run: Path, levels: int, num_envs: int, seed: int, source: str,
             "torque_scale": round(env.curriculum.torque_scale, 3), "stood_up_by_level": shares}
 
 
+def _parser() -> argparse.ArgumentParser:
+    """Runs, --levels K, --envs, --source, --target, --seed."""
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("runs", type=Path, nargs="+")
+    parser.add_argument("--levels", type=int, default=8)
+    parser.add_argument("--envs", type=int, default=64, help="episodes per level and run")
+    parser.add_argument("--source", default="half_kneeling")
+    parser.add_argument("--target", default="kneeling")
+    parser.add_argument("--seed", type=int, default=7)
+    return parser
+
+
 def main() -> None:
-    parser = bridge_probe_parser(__doc__.split("\n")[0])
+    parser = _parser()
     parser.add_argument("--torque-scale", type=float, default=1.0)
     args = parser.parse_args()
     torch.set_num_threads(1)

@@ -11,9 +11,8 @@ the starts of ``assist.poses`` (``curriculum/assist_fraction``) is annealed by
 ``assist.decay`` per advance; its advances over the same window give the same estimate
 for the pull to reach ``assist.floor``. Writes a PNG and prints a Markdown table.
 
-    python training/plot_frontier_pace.py training/checkpoints/{full_se,full_bridge,\\
-        full_bridge_feet,full_bridge_explore,full_bridge_focus} --since 3600 \\
-        --out training/checkpoints/frontier_pace.png
+    python research/plot_frontier_pace.py runs/root runs/parent runs/fork --since 3600 \\
+        --out frontier_pace.png
 """
 
 from __future__ import annotations

@@ -2,35 +2,35 @@
 unassisted episodes as in ``probe_bridge_levels.py``, one row of frames per episode at the
 given times, each seen from the robot's left (its heading at the start), with the CoM
 (blue), the capture point (green) and the support polygons drawn in; a frame after the
-episode's end is left grey. Needs an OpenGL context (``MUJOCO_GL=egl`` or ``osmesa``).
+episode's end is left grey. Drawn with OpenGL where a context can be made, else in
+software.
 
-    MUJOCO_GL=egl python training/film_bridge_level.py runs/full_bridge --at 4 --episodes 3 \
-        --out film.png
+    python research/film_bridge_level.py runs/my_run --at 4 --episodes 3 --out film.png
 """
 
 from __future__ import annotations
 
-import os
+import argparse
 from pathlib import Path
 
-os.environ.setdefault("MUJOCO_GL", "egl")
+import hybrid_recovery  # noqa: F401  (first: it chooses MuJoCo's OpenGL backend)
 
-import matplotlib  # noqa: E402
+# isort: split
+import matplotlib
+import matplotlib.pyplot as plt
+import mujoco
+import numpy as np
+import torch
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import mujoco  # noqa: E402
-import numpy as np  # noqa: E402
-import torch  # noqa: E402
-
-from hybrid_recovery.envs.render import BalanceRenderer, add_overlay, balance_overlay  # noqa: E402
-from hybrid_recovery.training.probe import (  # noqa: E402
+from hybrid_recovery.sim.render import BalanceRenderer, add_overlay, balance_overlay
+from hybrid_recovery.training.probe import (
     bridge_env,
-    bridge_probe_parser,
     ended_episodes,
     heading_xy,
     start_episodes,
 )
+
+matplotlib.use("Agg")
 
 DEFAULT_TIMES = (0.0, 0.1, 0.2, 0.3, 0.4, 0.6, 0.8, 1.0, 1.5, 2.0)
 
@@ -95,8 +95,20 @@ def sheet(film: dict, times: list[float], title: str, out: Path, size: int = 260
     plt.close(fig)
 
 
+def _parser() -> argparse.ArgumentParser:
+    """Runs, --levels K, --envs, --source, --target, --seed."""
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("runs", type=Path, nargs="+")
+    parser.add_argument("--levels", type=int, default=8)
+    parser.add_argument("--envs", type=int, default=64, help="episodes per level and run")
+    parser.add_argument("--source", default="half_kneeling")
+    parser.add_argument("--target", default="kneeling")
+    parser.add_argument("--seed", type=int, default=7)
+    return parser
+
+
 def main() -> None:
-    parser = bridge_probe_parser(__doc__.split("\n")[0])
+    parser = _parser()
     parser.add_argument("--at", type=int, required=True, help="the bridge level k (of K)")
     parser.add_argument("--episodes", type=int, default=3)
     parser.add_argument("--times", type=float, nargs="+", default=list(DEFAULT_TIMES))

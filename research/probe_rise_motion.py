@@ -7,11 +7,12 @@ CoM height, the episode's length and how it ended; medians over stood-up and fai
 episodes. Forward is the robot's heading at the start (its pelvis x axis, horizontal),
 which the starts draw at random.
 
-    python training/probe_rise_motion.py runs/full_bridge --levels 8 --at 3 4 8 --envs 64
+    python research/probe_rise_motion.py runs/my_run --levels 8 --at 3 4 8 --envs 64
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 from collections import Counter
 from pathlib import Path
@@ -21,7 +22,6 @@ import torch
 
 from hybrid_recovery.training.probe import (
     bridge_env,
-    bridge_probe_parser,
     ended_episodes,
     heading_xy,
     start_episodes,
@@ -87,8 +87,20 @@ def motion(run: Path, levels: int, at: list[int], num_envs: int, seed: int, sour
     return out
 
 
+def _parser() -> argparse.ArgumentParser:
+    """Runs, --levels K, --envs, --source, --target, --seed."""
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("runs", type=Path, nargs="+")
+    parser.add_argument("--levels", type=int, default=8)
+    parser.add_argument("--envs", type=int, default=64, help="episodes per level and run")
+    parser.add_argument("--source", default="half_kneeling")
+    parser.add_argument("--target", default="kneeling")
+    parser.add_argument("--seed", type=int, default=7)
+    return parser
+
+
 def main() -> None:
-    parser = bridge_probe_parser(__doc__.split("\n")[0])
+    parser = _parser()
     parser.add_argument("--at", type=int, nargs="+", default=[3, 4, 8],
                         help="levels to probe (K: the target pose itself)")
     args = parser.parse_args()

@@ -2,12 +2,11 @@
 fractions f (f = 0: unassisted, as deployed).
 
 For every pose and fraction all envs start from the pose itself (no bridge), with the run's
-training settings and its assistance mode (``assist.mode``: the torso pull or reduced
-gravity) at f, on every pose named; the share that stands up (CoM above 0.85 m, torso
-within 72°, for 1 s) says how much of a rise each actor makes on its own, and how much the
-assistance still carries.
+training settings and its torso pull at f, on every pose named; the share that stands up
+(CoM above 0.85 m, torso within 72°, for 1 s) says how much of a rise each actor makes on
+its own, and how much the assistance still carries.
 
-    python training/probe_assisted_poses.py runs/full_bridge_focus --poses supine sitting \
+    python research/probe_assisted_poses.py runs/my_run --poses supine sitting \
         --fractions 0 0.3 0.5 0.648 --envs 32
 """
 
@@ -41,7 +40,7 @@ def probe(run: Path, pose: str, fractions: list[float], num_envs: int, seed: int
                                f"{env.assist.fraction}); use fewer --envs than the window")
         shares[f"{f:g}"] = round(float(stood.mean()), 3)
     return {"run": str(run), "iteration": int(data["iter"]), "pose": pose,
-            "episodes": num_envs, "mode": env.cfg.assist.mode, "stood_up_by_fraction": shares}
+            "episodes": num_envs, "stood_up_by_fraction": shares}
 
 
 def main() -> None:

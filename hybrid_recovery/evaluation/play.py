@@ -2,7 +2,7 @@
 
 The controller is zero actions (PD targets at the default pose) or an exported ONNX
 policy fed the actor observation, as in training. Frames come from
-:class:`hybrid_recovery.envs.render.BalanceRenderer` with the balance overlay.
+:class:`hybrid_recovery.sim.render.BalanceRenderer` with the balance overlay.
 """
 
 from __future__ import annotations
@@ -15,9 +15,9 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from hybrid_recovery.envs.render import BalanceRenderer, balance_overlay
 from hybrid_recovery.policy import OnnxPolicy
 from hybrid_recovery.robot import constants
+from hybrid_recovery.sim.render import BalanceRenderer, balance_overlay
 
 CONTROL_RATE = 50
 """Control steps per second of the environment [Hz]; the frame rate must divide it."""
@@ -62,7 +62,7 @@ def play(out: str | Path, pose: str = "standing", seconds: float = 5.0,
 
     Args:
         out: the .mp4 file to write.
-        pose: start pose, one of :data:`hybrid_recovery.envs.initial_states.POSES`.
+        pose: start pose, one of :data:`hybrid_recovery.sim.initial_states.POSES`.
         seconds: episode length [s].
         policy: actor observation → action; None for zero actions.
         push: torso push |F| [N] (0: none), at ``push_time`` [s] for ``push_duration`` [s].
@@ -84,7 +84,7 @@ def play(out: str | Path, pose: str = "standing", seconds: float = 5.0,
     import torch
 
     from hybrid_recovery.envs import RecoveryEnv, default_config
-    from hybrid_recovery.envs.initial_states import POSES
+    from hybrid_recovery.sim.initial_states import POSES
 
     if pose not in POSES:
         raise ValueError(f"unknown pose '{pose}': choose one of {list(POSES)}")

@@ -1,8 +1,9 @@
 """Action → joint targets, as in training: q_ref = q* + s · clip(a, ±ACTION_CLIP).
 
-The environment, the deploy runner and the MuJoCo controllers all go through
-:func:`joint_targets`, so the robot gets the targets the policy was trained on; the
-clipped action (:func:`clip_action`) is the next observation's ``last_action``.
+The environment and :func:`hybrid_recovery.policy.policy_step` (the deploy runner and the
+MuJoCo controllers) go through :func:`joint_targets`, so the robot gets the targets the
+policy was trained on; the clipped action (:func:`clip_action`) is the next
+observation's ``last_action``.
 """
 
 from __future__ import annotations

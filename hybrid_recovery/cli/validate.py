@@ -1,0 +1,77 @@
+"""Checks of command-line values at the edge, before any work is done or any file written.
+
+The number checks are argparse ``type=`` functions: a refused value ends the command
+with ``error: argument --trials: must be an integer >= 1, got '-5'`` and exit 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Callable
+from pathlib import Path
+
+
+def integer(minimum: int) -> Callable[[str], int]:
+    """An argparse type: an integer ≥ ``minimum``."""
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            value = None
+        if value is None or value < minimum:
+            raise argparse.ArgumentTypeError(f"must be an integer >= {minimum}, got {text!r}")
+        return value
+
+    return parse
+
+
+def number(minimum: float, inclusive: bool = False) -> Callable[[str], float]:
+    """An argparse type: a finite number > ``minimum`` (≥ with ``inclusive``)."""
+    relation = ">=" if inclusive else ">"
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        ok = math.isfinite(value) and (value >= minimum if inclusive else value > minimum)
+        if not ok:
+            raise argparse.ArgumentTypeError(
+                f"must be a finite number {relation} {minimum:g}, got {text!r}")
+        return value
+
+    return parse
+
+
+def finite(text: str) -> float:
+    """An argparse type: any finite number."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
+    return value
+
+
+def check_model(path: str | None) -> None:
+    """Loads a ``--model`` MJCF once, so that a missing or malformed file is refused
+    before any work, with its name in the message.
+
+    Raises:
+        FileNotFoundError: no such file.
+        ValueError: MuJoCo cannot parse or compile it, or it is not an H1-2.
+    """
+    if path is None:
+        return
+    from hybrid_recovery.robot.mjcf import load_mjmodel
+
+    load_mjmodel(Path(path))
+
+
+non_negative = number(0.0, inclusive=True)
+"""An argparse type: a finite number >= 0."""
+positive = number(0.0)
+"""An argparse type: a finite number > 0."""

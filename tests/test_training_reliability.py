@@ -1,0 +1,131 @@
+"""Training never loses or overwrites a run by accident: a new run into an existing one
+is refused, a damaged checkpoint falls back to the newest intact one, a damaged
+``config.json`` is named, and a resume keeps the run's own target and settings."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from hybrid_recovery.cli.main import main
+from hybrid_recovery.training import TrainConfig, load_checkpoint, train
+from hybrid_recovery.training.checkpoint import load_latest
+from hybrid_recovery.training.export import export_policy
+
+FAST = {"curriculum.window": 8, "curriculum.advance_success": 0.0}
+CLI = ["--num-envs", "8", "--save-interval", "1", "--threads", "1", "--set",
+       "curriculum.window=8", "curriculum.advance_success=0.0"]
+
+
+def _cfg(**kw) -> TrainConfig:
+    return TrainConfig(num_envs=8, iterations=kw.pop("iterations", 2), save_interval=1,
+                       num_threads=1, env_overrides=dict(FAST), **kw)
+
+
+def _snapshot(run) -> dict:
+    return {str(p): p.read_bytes() for p in sorted(run.rglob("*")) if p.is_file()}
+
+
+@pytest.fixture(scope="module")
+def run_dir(tmp_path_factory):
+    run = tmp_path_factory.mktemp("runs") / "run"
+    train(run, _cfg())
+    return run
+
+
+def test_a_new_run_into_an_existing_one_is_refused_and_nothing_is_touched(run_dir, capsys):
+    before = _snapshot(run_dir)
+    with pytest.raises(FileExistsError) as info:
+        train(run_dir, _cfg())
+    assert str(info.value) == (f"{run_dir} already holds a training run (config.json); continue "
+                               "it with --resume or start it over with --force")
+    assert main(["train", "--run-dir", str(run_dir), "--iterations", "2", *CLI]) == 2
+    assert capsys.readouterr().err == f"error: {info.value}\n"
+    assert _snapshot(run_dir) == before
+
+
+def test_force_starts_over(tmp_path):
+    run = tmp_path / "run"
+    train(run, _cfg(iterations=3))
+    assert load_checkpoint(run / "latest.pt")["iter"] == 2
+    with pytest.raises(ValueError, match="give one"):
+        train(run, _cfg(), resume=True, force=True)
+    train(run, _cfg(iterations=1), force=True)
+    assert load_checkpoint(run / "latest.pt")["iter"] == 0
+    assert sorted(p.name for p in run.glob("model_*.pt")) == ["model_0.pt"]
+    assert len(list(run.glob("events.out.tfevents*"))) == 1
+
+
+def test_a_bad_setting_writes_nothing(tmp_path, capsys):
+    run = tmp_path / "new"
+    assert main(["train", "--run-dir", str(run), "--set", "physics_dt=0"]) == 2
+    assert capsys.readouterr().err == "error: config key 'physics_dt' must be > 0, got 0\n"
+    assert main(["train", "--run-dir", str(run), "--set", "curriculum.window=abc"]) == 2
+    assert capsys.readouterr().err == ("error: config key 'curriculum.window' must be an "
+                                       "integer, got 'abc'\n")
+    with pytest.raises(SystemExit) as parse:  # argparse's own exit, in the same format
+        main(["train", "--run-dir", str(run), "--num-envs", "-4"])
+    assert parse.value.code == 2
+    assert capsys.readouterr().err == ("error: argument --num-envs: must be an integer >= 1, "
+                                       "got '-4'\n")
+    assert not run.exists()
+
+
+def test_a_damaged_latest_falls_back_to_the_newest_intact_checkpoint(tmp_path, capsys):
+    run = tmp_path / "run"
+    train(run, _cfg(iterations=3))
+    latest = run / "latest.pt"
+    latest.write_bytes(latest.read_bytes()[:100])  # torn by a full disk
+    data, path = load_latest(run)
+    assert path == run / "model_2.pt" and data["iter"] == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"warning: latest.pt: checkpoint {latest} is corrupt or not a torch "
+                          "checkpoint: ") and err.endswith(f"; using {path} instead\n")
+    exported = export_policy(run, tmp_path / "export")  # export falls back the same way
+    assert json.loads((exported / "policy.json").read_text())["provenance"]["iteration"] == 2
+    (run / "model_2.pt").unlink()
+    latest.unlink()
+    assert load_latest(run)[1] == run / "model_1.pt"
+    train(run, _cfg(iterations=3), resume=True)  # continues after iteration 1
+    assert load_checkpoint(latest)["iter"] == 2
+    for p in run.glob("*.pt"):
+        p.write_bytes(b"junk")
+    with pytest.raises(ValueError) as info:
+        load_latest(run)
+    assert str(info.value).startswith(f"no intact checkpoint in {run}: latest.pt: checkpoint ")
+    with pytest.raises(FileNotFoundError) as missing:
+        train(tmp_path / "empty", _cfg(), resume=True)
+    assert str(missing.value) == (f"cannot resume: no checkpoint in {tmp_path / 'empty'} "
+                                  "(no latest.pt, no model_*.pt)")
+
+
+def test_a_damaged_config_is_named(tmp_path, capsys):
+    run = tmp_path / "run"
+    train(run, _cfg())
+    config = run / "config.json"
+    config.write_text(config.read_text()[:200])
+    with pytest.raises(ValueError) as info:
+        train(run, _cfg(iterations=3), resume=True)
+    assert str(info.value).startswith(f"run settings {config} are damaged (not valid JSON: ")
+    assert main(["train", "--resume", "--run-dir", str(run)]) == 2
+    assert capsys.readouterr().err.startswith(f"error: run settings {config} are damaged")
+
+
+def test_resume_keeps_the_runs_target_and_names_only_options_given(tmp_path, capsys):
+    run = tmp_path / "run"
+    train(run, _cfg(iterations=2))
+    config = run / "config.json"
+    meta = json.loads(config.read_text())
+    meta["train_config"]["iterations"] = 3  # a run of 3 iterations stopped after 2
+    config.write_text(json.dumps(meta))
+    capsys.readouterr()
+    assert main(["train", "--resume", "--run-dir", str(run), "--threads", "1"]) == 0
+    assert load_checkpoint(run / "latest.pt")["iter"] == 2  # its own 3, not 50,000
+    out = capsys.readouterr().out
+    assert "ignored" not in out
+    assert main(["train", "--resume", "--run-dir", str(run), "--threads", "1",
+                 "--iterations", "4", "--num-envs", "16", "--init-std", "0.5"]) == 0
+    assert load_checkpoint(run / "latest.pt")["iter"] == 3
+    assert (f"[hybrid-recovery] resuming with the run's saved settings ({config}); these "
+            "options given now are ignored: --init-std, --num-envs\n") in capsys.readouterr().out
