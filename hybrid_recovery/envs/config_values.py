@@ -50,6 +50,10 @@ RANGES: dict[str, tuple[float, bool, float]] = {
     "assist.floor": (0.0, True, math.inf),
     "bridge.levels": (0, True, math.inf),
     "bridge.window": (1, True, math.inf),
+    "rises.levels": (1, True, math.inf),
+    "rises.advance": (0.0, False, 1.0),
+    "rises.retreat": (0.0, True, 1.0),
+    "rises.window": (1, True, math.inf),
 }
 """Key → (lower bound, lower bound allowed, upper bound allowed) of every number in the
 value (each entry of a pair or a table); keys not listed take any number but NaN."""
