@@ -73,6 +73,7 @@ class RecoveryEnv(VecEnv):
         self.model, self.layout = build_scene(cfg.model_path, cfg.physics_dt,
                                               delay_samples=int(delay[1]) + 2)
         n, m = cfg.num_envs, self.model
+        self.rises = RiseStarts(cfg.rises, m.nq, m.nv)  # its files checked before the work
         self.sims = mjbatch.Batch(m, n, cfg.num_threads, persistent=True)
         b = self.sims.bind
         self.qpos, self.qvel, self.ctrl = b("qpos"), b("qvel"), b("ctrl")
@@ -95,7 +96,6 @@ class RecoveryEnv(VecEnv):
         self.pushes = Pushes(cfg.pushes, n, self.dt)
         self.stuck = StuckLow(n, cfg.stuck_time, cfg.stuck_rise, self.dt)
         self.pool = settle_pool(m, per_pose=32, rng=self.rng, nthread=cfg.num_threads)
-        self.rises = RiseStarts(cfg.rises, m.nq, m.nv)
         # a pose with recorded rises starts along them, not from its bridge's blends
         self.bridge = PoseBridge(dataclasses.replace(cfg.bridge, pairs=tuple(
             pair for pair in cfg.bridge.pairs if tuple(pair)[-1] not in self.rises.poses)))

@@ -7,8 +7,8 @@ ground moves, then the policy from the hand-over on. The *move* of an episode is
 samples from the first one after the settle up to (not including) the first one of the
 policy, or to its end when the policy never took over. Each sample of a move has the
 progress u = (t − t₀) / (t_h − t₀) ∈ [0, 1), t₀ the move's first sample, t_h the
-hand-over, and belongs to stretch k = min(⌊(1 − u) K⌋, K − 1) of K: stretch 0 ends at
-the hand-over, stretch K − 1 begins at the ground pose.
+hand-over, and belongs to stretch k = K − 1 − ⌊u K⌋ of K, the one of u ∈ [(K − 1 − k)/K,
+(K − k)/K): stretch 0 ends at the hand-over, stretch K − 1 begins at the ground pose.
 
 A pose's starts are drawn from the stretch of its level k ∈ {0, …, K}; at K the pose's
 own settled starts are used (the curriculum is done). The level moves on the stand-up
@@ -84,8 +84,9 @@ def move_progress(time: np.ndarray, episode: np.ndarray, phase: np.ndarray
 
 
 def stretch_of(u: np.ndarray, levels: int) -> np.ndarray:
-    """Stretch k = min(⌊(1 − u) K⌋, K − 1) of progress u ∈ [0, 1), shape as ``u``."""
-    return np.minimum(np.floor((1.0 - u) * levels).astype(int), levels - 1)
+    """Stretch k = K − 1 − ⌊u K⌋ of progress u ∈ [0, 1), shape as ``u``, int (u K within
+    1e-9 of a whole number counts as it: times sampled at 50 Hz are not exact in binary)."""
+    return levels - 1 - np.clip(np.floor(u * levels + 1e-9).astype(int), 0, levels - 1)
 
 
 def load_rises(path: str | Path, levels: int, nq: int, nv: int) -> tuple[str, RiseMoves]:
