@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import mujoco
 import numpy as np
 import pytest
 
-REFERENCE_DIR = Path(__file__).resolve().parents[1].parent / "shared" / "reference" / "unitree_h1_2"
+SHARED_DIR = Path(os.environ.get("HYBRID_RECOVERY_SHARED",
+                                 Path(__file__).resolve().parents[1].parent / "shared"))
+"""``../shared`` next to the checkout, or ``$HYBRID_RECOVERY_SHARED``."""
+REFERENCE_DIR = SHARED_DIR / "reference" / "unitree_h1_2"
 REFERENCE_MJCF = REFERENCE_DIR / "h1_2_handless.xml"
 
 

@@ -6,11 +6,13 @@ import json
 
 import numpy as np
 import pytest
+import torch
 
 from hybrid_recovery.bench import BENCHES, run_dynamics_bench
 from hybrid_recovery.bench.dynamics import MJ_FORWARD, random_states
 from hybrid_recovery.bench.result import BenchResult
 from hybrid_recovery.bench.timing import best_seconds
+from hybrid_recovery.bench.update_parts import UPDATE_PARTS, fill_storage, time_update_parts
 from hybrid_recovery.cli.main import main
 
 QUANTITIES = {"balance_state", "centroidal_momentum_matrix", "centroidal_momentum_drift",
@@ -91,10 +93,108 @@ def test_env_bench_reports_rates_and_split():
                                            "resets", "rewards_terminations_other"}
 
 
-def test_train_bench_reports_split():
+def test_physics_replay_is_the_env_runs_physics():
+    """Without resets, replaying the recorded controls and pushes from the start state
+    ends in the env run's own state, bit for bit; and the env carries on from there."""
+    from hybrid_recovery.bench.physics_replay import PhysicsReplay
+    from hybrid_recovery.envs import RecoveryEnv, default_config
+
+    cfg = default_config()
+    cfg.num_envs, cfg.num_threads, cfg.seed = 4, 1, 3
+    env = RecoveryEnv(cfg)
+    replay = PhysicsReplay(env)
+    with pytest.raises(RuntimeError, match=r"^PhysicsReplay.replay\(\) needs start\(\) first$"):
+        replay.replay()
+    replay.start()
+    gen = torch.Generator().manual_seed(0)
+    for _ in range(3):
+        _, _, done, _ = env.step(torch.randn(4, 27, generator=gen) * 0.3)
+        assert not done.any()
+    end = {f: env.sims.bind(f).copy() for f in ("qpos", "qvel")}
+    assert replay.steps == 3 * 4 and replay.replay() > 0.0
+    for field, value in end.items():
+        np.testing.assert_array_equal(replay.replayed[field], value)
+        np.testing.assert_array_equal(env.sims.bind(field), value)
+    assert not np.array_equal(replay.replayed["qpos"], replay._start["qpos"])
+
+
+@pytest.fixture(scope="module")
+def train_bench() -> dict:
     from hybrid_recovery.bench import run_train_bench
 
-    figures = json.loads(run_train_bench(n=4, repeat=1, threads=1).json_line())
-    assert figures["env_steps_per_s"] > 0
+    return json.loads(run_train_bench(n=4, repeat=1, threads=1).json_line())
+
+
+def test_train_bench_reports_split_and_physics_rate(train_bench):
+    figures = train_bench
+    assert figures["env_steps_per_s"] > 0 and figures["physics_steps_per_s"] > 0
+    # the physics alone is a part of the iteration: it must run faster
+    assert figures["physics_steps_per_s"] > figures["env_steps_per_s"]
+    assert figures["ratio"] == pytest.approx(
+        figures["env_steps_per_s"] / figures["physics_steps_per_s"], abs=1e-3)
     assert set(figures["s_per_iteration"]) == {"simulation", "observation_reward",
                                                "policy_inference_and_storage", "ppo_update"}
+    settings = dict(figures["settings"])
+    assert settings.pop("omp_wait_policy") in (None, "PASSIVE", "ACTIVE")  # as the env has it
+    assert settings == {"threads": 1, "torch_threads": 1, "mixed_precision": False,
+                        "num_learning_epochs": 5, "num_mini_batches": 4, "symmetry": False}
+
+
+def test_train_bench_splits_the_update(train_bench):
+    parts = train_bench["update_s_per_iteration"]
+    assert list(parts) == [*UPDATE_PARTS, "rest"]
+    assert all(parts[name] >= 0.0 for name in UPDATE_PARTS)  # rounded to 1 ms
+    assert parts["actor_backward"] > 0.0 and parts["critic_backward"] > 0.0
+    assert parts["symmetry_augmentation"] == 0.0  # symmetry is off
+    assert sum(parts.values()) == pytest.approx(train_bench["s_per_iteration"]["ppo_update"],
+                                                abs=2e-3)
+
+
+def test_update_parts_leave_the_learner_as_it_was():
+    import contextlib
+    import copy
+    import io
+
+    from hybrid_recovery.envs import RecoveryEnv
+    from hybrid_recovery.training.config import TrainConfig, runner_dict
+    from hybrid_recovery.training.runner import RecoveryRunner, make_env_config
+
+    cfg = TrainConfig(num_envs=4, num_threads=1)
+    cfg.ppo.symmetry = True
+    env = RecoveryEnv(make_env_config(cfg))
+    with contextlib.redirect_stdout(io.StringIO()):
+        runner = RecoveryRunner(env, runner_dict(cfg), None, meta={})
+    fill_storage(runner)
+    alg = runner.alg
+    alg.optimizer.step()  # an Adam state to keep
+    before = copy.deepcopy((alg.actor.state_dict(), alg.critic.state_dict(),
+                            alg.optimizer.state_dict()["state"]))
+    parts = time_update_parts(alg, repeat=1)
+    assert list(parts) == list(UPDATE_PARTS) and all(v > 0.0 for v in parts.values())
+    after = (alg.actor.state_dict(), alg.critic.state_dict(), alg.optimizer.state_dict()["state"])
+    for old, new in zip(before[:2], after[:2], strict=True):
+        assert old.keys() == new.keys()
+        assert all(torch.equal(old[k], new[k]) for k in old)
+    for k, state in before[2].items():
+        assert all(torch.equal(v, after[2][k][name]) for name, v in state.items())
+    assert all(p.grad is None or not p.grad.any() for p in alg.actor.parameters())
+
+
+def test_bench_train_settings_are_checked():
+    from hybrid_recovery.bench.train import bench_train_config
+
+    cfg = bench_train_config(8, 0, 1, {"torch_threads": 1, "ppo.mixed_precision": True})
+    assert cfg.torch_threads == 1 and cfg.ppo.mixed_precision and cfg.num_envs == 8
+    with pytest.raises(KeyError, match=r"unknown training setting 'ppo.epochs'; known: "):
+        bench_train_config(8, 0, 1, {"ppo.epochs": 2})
+    with pytest.raises(KeyError, match=r"unknown training setting 'threads'; known: "):
+        bench_train_config(8, 0, 1, {"threads": 2})
+
+
+def test_cli_bench_train_takes_train_settings(capsys):
+    assert main(["bench", "train", "-n", "4", "--repeat", "1",
+                 "--set", "torch_threads=1", "ppo.mixed_precision=true"]) == 0
+    figures = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert figures["settings"]["torch_threads"] == 1
+    assert figures["settings"]["mixed_precision"] is True
+    assert figures["ratio_noise_at_start"] > 0.0  # bf16 rounding, see test_mixed_precision

@@ -92,6 +92,10 @@ def test_interrupt_is_one_line_and_exit_130(capsys):
     assert capsys.readouterr().err == "interrupted\n"
 
 
+def _default_sigint() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def test_ctrl_c_during_eval_keeps_the_finished_trials(tmp_path):
     out = tmp_path / "eval"
     results = out / "results.jsonl"
@@ -99,7 +103,8 @@ def test_ctrl_c_during_eval_keeps_the_finished_trials(tmp_path):
            "--trials", "200", "--duration", "3", "--workers", "2", "--out", str(out)]
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env=env, start_new_session=True)
+                            env=env, start_new_session=True,  # SIGINT handled even when the
+                            preexec_fn=_default_sigint)        # tests run as a background job
     deadline = time.time() + 180
     while time.time() < deadline and proc.poll() is None:
         if results.is_file() and len(results.read_text().splitlines()) >= 4:

@@ -15,7 +15,6 @@ import pytest
 from hybrid_recovery.deploy import bridge
 from hybrid_recovery.deploy.bridge import ControllerError, run_controller
 from hybrid_recovery.deploy.fast_dds import RawSample
-from hybrid_recovery.deploy.policy_runner import PolicyRunner
 from hybrid_recovery.deploy.robot_io import LowStateReading
 from hybrid_recovery.deploy.state_machine import (
     Fault,
@@ -94,15 +93,18 @@ def test_a_malformed_state_sends_damping_then_names_the_cause(monkeypatch, polic
 
 
 def test_an_inference_error_sends_damping_then_names_the_cause(monkeypatch, policy):
-    calls = []
+    from hybrid_recovery.deploy import policy_runner
 
-    def failing(self, obs):
+    calls = []
+    real_step = policy_runner.policy_step
+
+    def failing(*args, **kwargs):
         calls.append(1)
         if len(calls) == 5:
             raise RuntimeError("onnxruntime: bad allocation")
-        return np.zeros(N)
+        return real_step(*args, **kwargs)
 
-    monkeypatch.setattr(PolicyRunner, "infer", failing)
+    monkeypatch.setattr(policy_runner, "policy_step", failing)
     link = FakeLink()
     with pytest.raises(ControllerError) as info:
         _run(monkeypatch, policy, link)

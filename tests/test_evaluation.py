@@ -10,6 +10,7 @@ import pytest
 from hybrid_recovery.evaluation import run_protocol
 from hybrid_recovery.evaluation.runner import completed_keys, load_results
 from hybrid_recovery.evaluation.scenario import (
+    SWEEP_DIRECTIONS,
     SWEEP_POSES,
     Scenario,
     pushes_protocol,
@@ -265,3 +266,25 @@ def test_results_record_the_policy_and_the_report_compares_budgets(tmp_path):
     write_report({"full a": runs["full a"], "zero": runs["zero"]}, tmp_path / "one",
                  "one", provenance=provenance)
     assert not (tmp_path / "one" / "stuck_low_vs_budget.png").exists()
+
+
+def test_eval_restricts_the_sweep_grid_and_refuses_what_does_not_apply():
+    from argparse import Namespace
+
+    from hybrid_recovery.cli.cmd_eval import _scenarios
+    from hybrid_recovery.cli.errors import UsageError
+
+    def args(protocol, **grid):
+        return Namespace(protocol=protocol, trials=1, seed=0, duration=6.0, poses=None, **grid)
+
+    picked = _scenarios(args("sweep", forces=[0.0, 300.0], directions=["left", "right"],
+                             heights=[0.6]))
+    assert len(picked) == 5 * 2 * 2 * 1
+    assert {s.force for s in picked} == {0.0, 300.0} and {s.height for s in picked} == {0.6}
+    assert {s.direction for s in picked} == {SWEEP_DIRECTIONS["left"], SWEEP_DIRECTIONS["right"]}
+    with pytest.raises(UsageError) as info:
+        _scenarios(args("pushes", heights=[0.2]))
+    assert str(info.value) == "eval: --heights does not apply to the pushes protocol"
+    with pytest.raises(UsageError) as info:
+        _scenarios(args("poses", forces=[100.0]))
+    assert str(info.value) == "eval: --forces does not apply to the poses protocol"

@@ -131,19 +131,36 @@ def test_policy_controller_uses_shared_observation_and_pd_law(model, policy_path
     assert len(seen) == 1
 
 
-def test_switches_to_policy_when_down_and_back_with_hysteresis(model, policy_path):
-    cfg = SupervisorConfig(to_qp_dwell=0.3, blend_time=0.1)
+def test_the_policy_stands_first_and_the_qp_holds_its_stance(model, policy_path):
+    cfg = SupervisorConfig(to_qp_dwell=0.3, to_qp_blend=0.1)
     supervisor = HybridSupervisor.from_onnx(policy_path, config=cfg)
     data = standing_data(model)
     supervisor.reset(model, data)
-    assert supervisor.mode == "qp"
-    _run(model, data, supervisor, 0.1)
-    assert supervisor.mode == "qp" and supervisor.events == []
+    assert supervisor.mode == "policy"
+    (start,) = supervisor.events
+    assert start.kind == "to_policy"
+    assert start.message == "start: the policy stands first (QP applicable)"
+    _run(model, data, supervisor, 0.5)
+    assert supervisor.mode == "qp" and [e.kind for e in supervisor.events] == [
+        "to_policy", "to_qp"]
+    assert supervisor.events[1].time >= cfg.to_qp_dwell - model.opt.timestep
+    # the QP's posture task holds the joints as the policy left them
+    held = supervisor.balance._posture_ref
+    assert held is not None and np.abs(held - constants.DEFAULT_JOINT_POS).max() > 1e-4
+
+
+def test_switches_to_policy_when_down_and_back_with_hysteresis(model, policy_path):
+    cfg = SupervisorConfig(to_qp_dwell=0.3, to_qp_blend=0.1)
+    supervisor = HybridSupervisor.from_onnx(policy_path, config=cfg)
+    data = standing_data(model)
+    supervisor.reset(model, data)
+    _run(model, data, supervisor, 0.4)
+    assert supervisor.mode == "qp" and len(supervisor.events) == 2
 
     _lying(model, data)  # knocked down
     _run(model, data, supervisor, 0.01)
     assert supervisor.mode == "policy"
-    (down,) = supervisor.events
+    down = supervisor.events[-1]
     assert down.kind == "to_policy" and down.message.startswith("QP not applicable")
 
     # Hysteresis: standing for less than the dwell time does not hand back...
@@ -151,20 +168,21 @@ def test_switches_to_policy_when_down_and_back_with_hysteresis(model, policy_pat
     _run(model, data, supervisor, 0.2)
     _lying(model, data)
     _run(model, data, supervisor, 0.05)
-    assert supervisor.mode == "policy" and len(supervisor.events) == 1
+    assert supervisor.mode == "policy" and len(supervisor.events) == 3
     # ...standing for longer does, once, after the dwell time.
     _standing(model, data)
     start = data.time
     _run(model, data, supervisor, 0.5)
     assert supervisor.mode == "qp"
     back = supervisor.events[-1]
-    assert back.kind == "to_qp" and [e.kind for e in supervisor.events] == ["to_policy", "to_qp"]
+    assert back.kind == "to_qp" and [e.kind for e in supervisor.events] == [
+        "to_policy", "to_qp", "to_policy", "to_qp"]
     assert back.time - start >= cfg.to_qp_dwell - model.opt.timestep
 
 
 def test_hand_over_to_the_qp_is_smooth(model, policy_path):
     """Torque steps across the policy → QP switch stay small (torque blending)."""
-    cfg = SupervisorConfig(to_qp_dwell=0.2, blend_time=0.2)
+    cfg = SupervisorConfig(to_qp_dwell=0.2, to_qp_blend=0.2)
     supervisor = HybridSupervisor(BalanceController(),
                                   PolicyController(OnnxPolicy(policy_path)), cfg)
     data = standing_data(model)
@@ -179,18 +197,24 @@ def test_hand_over_to_the_qp_is_smooth(model, policy_path):
     assert steps[switch - 5: switch + 100].max() < 0.1
 
 
-def test_keeps_the_qp_while_a_step_captures_and_hands_over_when_none_does(model, policy_path):
+def test_keeps_ankle_and_hip_pushes_and_hands_a_step_over_at_once(model, policy_path):
+    """The QP absorbs a push its hip strategy captures and never steps; a push that needs
+    a step goes to the policy at once, while the robot is still up."""
     from hybrid_recovery.control import Push, run_episode
 
-    supervisor = HybridSupervisor.from_onnx(policy_path)
-    result = run_episode(model, supervisor, 2.0, push=Push(np.array([300.0, 0.0, 0.0]), 0.3))
-    assert result.standing and supervisor.events == [] and supervisor.mode == "qp"
-    assert len(supervisor.balance.steps) == 1
+    cfg = SupervisorConfig(to_qp_dwell=0.2)
+    supervisor = HybridSupervisor.from_onnx(policy_path, config=cfg)
+    result = run_episode(model, supervisor, 1.5, push=Push(np.array([150.0, 0.0, 0.0]), 0.6))
+    assert result.standing and supervisor.mode == "qp"
+    assert [e.kind for e in supervisor.events] == ["to_policy", "to_qp"]
+    assert supervisor.balance.steps == []
 
-    result = run_episode(model, supervisor, 0.8, push=Push(np.array([700.0, 0.0, 0.0]), 0.3),
+    result = run_episode(model, supervisor, 0.9, push=Push(np.array([700.0, 0.0, 0.0]), 0.6),
                          keep_diagnostics=True)
-    (event,) = supervisor.events
-    assert event.kind == "to_policy"
-    assert event.message.startswith("not capturable by ankle, hip or steps")
+    assert [e.kind for e in supervisor.events] == ["to_policy", "to_qp", "to_policy"]
+    event = supervisor.events[-1]
+    assert event.message.startswith("not capturable by the ankle or hip strategy")
+    assert 0.6 <= event.time <= 0.6 + 0.05
+    assert supervisor.balance.steps == []
     # ...while the robot is still up: the hand-over comes before the fall.
     assert result.diagnostics[round(event.time / model.opt.timestep) - 1].applicable

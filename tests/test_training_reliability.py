@@ -110,6 +110,9 @@ def test_a_damaged_config_is_named(tmp_path, capsys):
     assert str(info.value).startswith(f"run settings {config} are damaged (not valid JSON: ")
     assert main(["train", "--resume", "--run-dir", str(run)]) == 2
     assert capsys.readouterr().err.startswith(f"error: run settings {config} are damaged")
+    with pytest.raises(ValueError) as info:
+        export_policy(run, tmp_path / "export")  # the training record reads it too
+    assert str(info.value).startswith(f"run settings {config} are damaged (not valid JSON: ")
 
 
 def test_resume_keeps_the_runs_target_and_names_only_options_given(tmp_path, capsys):
@@ -129,3 +132,21 @@ def test_resume_keeps_the_runs_target_and_names_only_options_given(tmp_path, cap
     assert load_checkpoint(run / "latest.pt")["iter"] == 3
     assert (f"[hybrid-recovery] resuming with the run's saved settings ({config}); these "
             "options given now are ignored: --init-std, --num-envs\n") in capsys.readouterr().out
+
+
+def test_amendments_are_typed_and_ranged():
+    from hybrid_recovery.training.config import amend_train_config
+
+    amended = amend_train_config(TrainConfig(), {"ppo.entropy_coef": 0, "train.max_std": 0.3})
+    assert amended.ppo.entropy_coef == 0.0 and isinstance(amended.ppo.entropy_coef, float)
+    for change, message in (
+            ({"ppo.entropy_coef": "abc"}, "config key 'ppo.entropy_coef' must be a number, "
+                                          "got 'abc'"),
+            ({"ppo.gamma": 1.5}, "config key 'ppo.gamma' must be > 0 and <= 1, got 1.5"),
+            ({"train.save_interval": 0}, "config key 'train.save_interval' must be >= 1, "
+                                         "got 0"),
+            ({"ppo.num_mini_batches": 2.5}, "config key 'ppo.num_mini_batches' must be an "
+                                            "integer, got 2.5")):
+        with pytest.raises(ValueError) as info:
+            amend_train_config(TrainConfig(), change)
+        assert str(info.value) == message

@@ -6,6 +6,7 @@ import os
 import time
 from collections import defaultdict
 
+from hybrid_recovery.bench.physics_replay import PhysicsReplay
 from hybrid_recovery.bench.result import BenchResult
 
 
@@ -32,8 +33,6 @@ def run_env_bench(n: int = 1024, repeat: int = 3, seed: int = 0, steps: int = 50
     reward, contact-hull or reset work: the same physics, step for step (envs the env run
     reset continue without the reset).
     """
-    import mujoco
-    import numpy as np
     import torch
 
     from hybrid_recovery.envs import RecoveryEnv, apply_overrides, default_config
@@ -50,18 +49,9 @@ def run_env_bench(n: int = 1024, repeat: int = 3, seed: int = 0, steps: int = 50
         _timed(env, name, totals)
     best_env, best_phys = float("inf"), float("inf")
     best_totals: dict[str, float] = {}
-    state_fields = ("qpos", "qvel", "act", "history", "qacc_warmstart", "time")
-    inputs: list[tuple[np.ndarray, np.ndarray]] = []
-    physics = env._physics
-
-    def recording_physics(failed):  # the controls and pushes of each step, as applied
-        inputs.append((env.ctrl.copy(), env.xfrc.copy()))
-        return physics(failed)
-
-    env._physics = recording_physics  # type: ignore[method-assign]
+    replay = PhysicsReplay(env)
     for _ in range(repeat):
-        start = {f: env.sims.bind(f).copy() for f in state_fields}
-        inputs.clear()
+        replay.start()
         totals.clear()
         t = time.perf_counter()
         for a in actions:
@@ -69,18 +59,7 @@ def run_env_bench(n: int = 1024, repeat: int = 3, seed: int = 0, steps: int = 50
         elapsed = time.perf_counter() - t
         if elapsed < best_env:
             best_env, best_totals = elapsed, dict(totals)
-        end = {f: env.sims.bind(f).copy() for f in state_fields}
-        for f, value in start.items():
-            env.sims.bind(f)[:] = value
-        env.sims.forward()  # derived fields of the restored state
-        t = time.perf_counter()
-        for ctrl, xfrc in inputs:
-            env.ctrl[:], env.xfrc[:] = ctrl, xfrc
-            env.sims.step(nstep=cfg.decimation, stage=mujoco.mjtStage.mjSTAGE_VEL)
-        best_phys = min(best_phys, time.perf_counter() - t)
-        for f, value in end.items():  # the env carries on from its own state
-            env.sims.bind(f)[:] = value
-        env.sims.forward()
+        best_phys = min(best_phys, replay.replay())
     env_rate, phys_rate = steps * n / best_env, steps * n / best_phys
     totals = defaultdict(float, best_totals)
     other = best_env - sum(totals.values())

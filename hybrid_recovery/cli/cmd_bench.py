@@ -57,7 +57,8 @@ def _configure_bench(p: argparse.ArgumentParser) -> None:
         (*LAYER_BENCHES, "qp", "deploy")) + "}")
     helps = {"dynamics": "balance quantities per state against mj_forward",
              "env": "environment steps per second and their split",
-             "train": "end-to-end training throughput and the PPO update's share"}
+             "train": "end-to-end training throughput against the physics-only rate, and "
+                      "the PPO update's parts"}
     for name in LAYER_BENCHES:
         t = targets.add_parser(name, help=helps[name], description=helps[name])
         t.add_argument("-n", type=integer(1), default=None,
@@ -68,6 +69,10 @@ def _configure_bench(p: argparse.ArgumentParser) -> None:
         if name == "env":
             t.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
                            help="EnvConfig overrides, e.g. physics_dt=0.01 decimation=2")
+        if name == "train":
+            t.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
+                           help="TrainConfig settings, e.g. torch_threads=1 "
+                                "ppo.mixed_precision=true ppo.num_mini_batches=2")
     qp = targets.add_parser("qp", help="QP balance baseline: solve time per tick and the "
                             "push-recovery sweep")
     qp.add_argument("mode", nargs="?", default="all", choices=("timing", "sweep", "all"))

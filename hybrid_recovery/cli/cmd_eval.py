@@ -8,6 +8,7 @@ from pathlib import Path
 from hybrid_recovery.cli.errors import UsageError
 from hybrid_recovery.cli.registry import command
 from hybrid_recovery.cli.validate import check_model, integer, positive
+from hybrid_recovery.evaluation.scenario import SWEEP_DIRECTIONS
 
 
 def _scenarios(args: argparse.Namespace):
@@ -23,6 +24,13 @@ def _scenarios(args: argparse.Namespace):
         for pose in args.poses:
             check_pose(pose)
         kwargs["poses"] = tuple(args.poses)
+    for name in ("forces", "directions", "heights"):
+        value = getattr(args, name, None)
+        if value is None:
+            continue
+        if args.protocol == "poses" or (args.protocol == "pushes" and name == "heights"):
+            raise UsageError(f"eval: --{name} does not apply to the {args.protocol} protocol")
+        kwargs[name] = tuple(value)
     return PROTOCOLS[args.protocol](args.trials, **kwargs)
 
 
@@ -33,9 +41,13 @@ def _run(args: argparse.Namespace, controller: str, out: Path) -> list[dict]:
               "poses": list(args.poses) if args.poses else None, "duration": args.duration}
     if args.stop_on_success:
         header["stop_on_success"] = True
+    for name in ("forces", "directions", "heights"):  # recorded only when restricted
+        if getattr(args, name, None) is not None:
+            header[name] = list(getattr(args, name))
     return run_protocol(_scenarios(args), controller, out / "results.jsonl",
                         model_path=args.model, contact=args.contact, workers=args.workers,
-                        header=header, stop_on_success=args.stop_on_success)
+                        header=header, rotor_inertia=args.rotor_inertia,
+                        stop_on_success=args.stop_on_success)
 
 
 def _check(args: argparse.Namespace, controllers: list[str]) -> None:
@@ -83,9 +95,18 @@ def _common(p: argparse.ArgumentParser) -> None:
                    help="poses: trials in all; sweep/pushes: trials per cell")
     p.add_argument("--poses", nargs="*", default=None, help="poses, sweep: only these start poses")
     p.add_argument("--duration", type=positive, default=None, help="trial length [s]")
+    p.add_argument("--forces", type=float, nargs="+", default=None,
+                   help="sweep/pushes: only these push forces [N]")
+    p.add_argument("--directions", nargs="+", default=None, choices=list(SWEEP_DIRECTIONS),
+                   help="sweep/pushes: only these push directions")
+    p.add_argument("--heights", type=float, nargs="+", default=None,
+                   help="sweep: only these push heights relative to the CoM [m]")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--model", default=None, help="another robot MJCF (sim-to-sim)")
     p.add_argument("--contact", default="default", help="contact preset (sim-to-sim)")
+    p.add_argument("--rotor-inertia", action="store_true",
+                   help="give the joints the project's rotor inertia (armature), for a "
+                        "model file without it such as the manufacturer's")
     p.add_argument("--workers", type=integer(1), default=2)
     p.add_argument("--stop-on-success", action="store_true",
                    help="end each trial once it has succeeded (same success and recovery "

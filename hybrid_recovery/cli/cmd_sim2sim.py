@@ -22,7 +22,8 @@ def _sim2sim(args: argparse.Namespace) -> int:
         from hybrid_recovery.training.stand_in import write_stand_in_policy
 
         policy = write_stand_in_policy(out / "stand_in_policy", "zero")
-    cfg = Sim2SimConfig(model_path=args.model, pose=args.pose, seconds=args.seconds,
+    cfg = Sim2SimConfig(model_path=args.model, rotor_inertia=args.rotor_inertia,
+                        pose=args.pose, seconds=args.seconds,
                         push_force=args.push, push_direction_deg=args.push_angle,
                         push_time=args.push_time, push_duration=args.push_duration,
                         delay_s=args.delay_ms / 1e3, startup=args.startup,
@@ -47,6 +48,9 @@ def _configure(p: argparse.ArgumentParser) -> None:
     p.add_argument("--model", default=None,
                    help="H1-2 MJCF (default: the project's model), e.g. the manufacturer's "
                         "h1_2_handless.xml from unitree_ros")
+    p.add_argument("--rotor-inertia", action="store_true",
+                   help="give the joints the project's rotor inertia (armature), for a "
+                        "model file without it such as the manufacturer's")
     p.add_argument("--pose", default="standing", choices=POSES)
     p.add_argument("--seconds", type=positive, default=10.0)
     p.add_argument("--push", type=non_negative, default=0.0, help="torso push force [N]")

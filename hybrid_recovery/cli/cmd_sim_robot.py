@@ -12,12 +12,14 @@ import dataclasses
 import json
 
 from hybrid_recovery.cli.registry import command
+from hybrid_recovery.cli.validate import check_model, non_negative, positive
 
 
 def _sim_robot(args: argparse.Namespace) -> int:
     from hybrid_recovery.deploy.bridge import serve_sim_robot
     from hybrid_recovery.deploy.sim_robot import SimRobotConfig
 
+    check_model(args.model)
     cfg = SimRobotConfig(model_path=args.model, gantry_s=args.gantry_s)
     report = serve_sim_robot(cfg, args.domain, args.interface, args.seconds, args.idle_exit_s,
                              args.realtime)
@@ -29,10 +31,10 @@ def _configure(p: argparse.ArgumentParser) -> None:
     p.add_argument("--domain", type=int, default=1, help="DDS domain id (default 1)")
     p.add_argument("--interface", default="lo", help="network interface (default lo)")
     p.add_argument("--model", default=None, help="H1-2 MJCF (default: the project's model)")
-    p.add_argument("--gantry-s", type=float, default=3.5,
+    p.add_argument("--gantry-s", type=non_negative, default=3.5,
                    help="hang the pelvis this long after the first command; 0 = on the ground")
-    p.add_argument("--seconds", type=float, default=60.0, help="longest run time")
-    p.add_argument("--idle-exit-s", type=float, default=1.0,
+    p.add_argument("--seconds", type=positive, default=60.0, help="longest run time")
+    p.add_argument("--idle-exit-s", type=positive, default=1.0,
                    help="exit this long after commands stop following damping")
     p.add_argument("--realtime", action="store_true", help="ask for SCHED_FIFO priority")
 

@@ -18,7 +18,7 @@ def _train(args: argparse.Namespace) -> int:
 
     settings = dict(num_envs=args.num_envs, iterations=args.iterations, seed=args.seed,
                     save_interval=args.save_interval, num_threads=args.threads,
-                    init_std=args.init_std, max_std=args.max_std,
+                    torch_threads=args.torch_threads, init_std=args.init_std, max_std=args.max_std,
                     env_overrides=parse_overrides(args.set) or None)
     variant = args.variant or DEFAULT_VARIANT
     try:
@@ -27,9 +27,11 @@ def _train(args: argparse.Namespace) -> int:
         raise UsageError(err.args[0]) from None
     if args.symmetry:
         cfg.ppo.symmetry = True
+    if args.mixed_precision:
+        cfg.ppo.mixed_precision = True
     given = {name for name, value in settings.items() if value is not None}
     given |= {"variant"} if args.variant else set()
-    given |= {"ppo"} if args.symmetry else set()
+    given |= {"ppo"} if args.symmetry or args.mixed_precision else set()
     run_dir = Path(args.run_dir or f"runs/{variant}")
     train(run_dir, cfg, resume=args.resume, amend=parse_overrides(args.amend),
           force=args.force, given=given)
@@ -49,7 +51,11 @@ def _configure_train(p: argparse.ArgumentParser) -> None:
     p.add_argument("--seed", type=int, default=None, help="default 0")
     p.add_argument("--save-interval", type=integer(1), default=None,
                    help="default 50 (recovery: 25)")
-    p.add_argument("--threads", type=integer(1), default=None, help="default 2")
+    p.add_argument("--threads", type=integer(1), default=None,
+                   help="physics threads, and torch threads unless --torch-threads is given "
+                        "(default 2)")
+    p.add_argument("--torch-threads", type=integer(1), default=None,
+                   help="torch threads for inference and the PPO update (default: --threads)")
     p.add_argument("--run-dir", default=None, help="default: runs/<variant>")
     p.add_argument("--resume", action="store_true",
                    help="continue the run in --run-dir with its saved settings")
@@ -57,6 +63,8 @@ def _configure_train(p: argparse.ArgumentParser) -> None:
                    help="start over in a --run-dir that holds a run (its checkpoints, "
                         "settings and logs are removed)")
     p.add_argument("--symmetry", action="store_true", help="left/right mirror augmentation")
+    p.add_argument("--mixed-precision", action="store_true",
+                   help="bf16 autocast for the PPO update (float32 weights and optimiser)")
     p.add_argument("--init-std", type=positive, default=None,
                    help="initial action noise std (the paper: 1.0; recovery: 0.5)")
     p.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",

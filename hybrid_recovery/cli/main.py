@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import pkgutil
 import sys
 from collections.abc import Sequence
@@ -32,9 +33,24 @@ def _register_all() -> None:
             importlib.import_module(f"hybrid_recovery.cli.{info.name}")
 
 
+OMP_WAIT_POLICY = "PASSIVE"
+"""The OpenMP wait policy the CLI gives torch unless ``OMP_WAIT_POLICY`` is already set.
+
+torch's OpenMP threads (libgomp) otherwise spin at every barrier, which on a shared
+2-core machine takes the cores from the physics threads and the other processes:
+``bench train`` at load 11 measured the PPO update at 51.0 s per iteration with 2 spinning
+threads, 12.6 s with PASSIVE (see ``training/README.md``, training throughput). libgomp
+reads the variable once, when torch loads, so it is set before any subcommand runs."""
+
+
+def _set_openmp_wait_policy() -> None:
+    os.environ.setdefault("OMP_WAIT_POLICY", OMP_WAIT_POLICY)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Runs one subcommand; returns 0, 1 (a controller fault), 2 (an error, one line
     ``error: <message>`` on stderr) or 130 (Ctrl-C)."""
+    _set_openmp_wait_policy()
     _register_all()
 
     parser = _Parser(prog="hybrid-recovery", description=__doc__)

@@ -92,12 +92,16 @@ class BalanceController:
         self._reader: StateReader | None = None
         self._model: mujoco.MjModel | None = None
         self._qp: WholeBodyQP | None = None
+        self._posture_ref: np.ndarray | None = None
 
     # ------------------------------------------------------------------ lifecycle
-    def reset(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+    def reset(self, model: mujoco.MjModel, data: mujoco.MjData,
+              posture: np.ndarray | None = None) -> None:
         """Binds to ``model`` and takes the current stance as the reference.
 
         ξ_ref and the CoM height target are the current CoM; the pelvis heading is kept.
+        ``posture`` (27,) [rad] is the joint posture the posture task holds (e.g. the
+        stance another controller stood up in); None for the default pose q*.
 
         Raises:
             ValueError: Not a torque model (:data:`MODEL_MESSAGE`) or a non-finite state
@@ -125,6 +129,7 @@ class BalanceController:
         self._step_count = 0
         self._down = False
         self._last_status = "solved"
+        self._posture_ref = None if posture is None else np.array(posture, dtype=float)
         self._init_references(self._read(data), float(data.time))
 
     @property
@@ -359,7 +364,7 @@ class BalanceController:
         cfg = self.config.qp
         tasks = [*momentum_tasks(state, cmd, cfg),
                  pelvis_orientation_task(state, self._heading, cfg),
-                 posture_task(state, self._selector, self._posture_w, cfg)]
+                 posture_task(state, self._selector, self._posture_w, cfg, self._posture_ref)]
         if self._swing is not None and self._plan is not None:
             tasks.append(swing_foot_task(state.feet[self._plan.swing], self._swing.sample(t),
                                          self._swing_heading, cfg))

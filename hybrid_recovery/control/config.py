@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from hybrid_recovery.control.diagnostics import Capturability
 from hybrid_recovery.robot.constants import UPRIGHT_COM_HEIGHT
 
 
@@ -152,8 +153,11 @@ class BalanceConfig:
 class SupervisorConfig:
     """Hybrid supervisor: hysteresis between the QP controller and the learned policy."""
 
-    to_policy_delay: float = 0.03
-    """Uncapturable (no ankle, hip or step option) this long → policy [s]."""
+    hand_over_at: Capturability = Capturability.ONE_STEP
+    """The QP keeps the situations it captures without a step (ankle and hip strategies);
+    from this capturability on (a step is needed, or nothing captures) the policy acts."""
+    to_policy_delay: float = 0.0
+    """Capturability at or beyond ``hand_over_at`` this long → policy [s] (0: at once)."""
     to_qp_dwell: float = 0.5
     """Upright and 0-step capturable this long → back to the QP [s]."""
     to_qp_margin: float = 0.02
@@ -162,10 +166,16 @@ class SupervisorConfig:
     """CoM speed below this to go back to the QP [m/s]."""
     to_qp_min_com_height: float = UPRIGHT_COM_HEIGHT
     """CoM height above this to go back to the QP [m]."""
-    blend_time: float = 0.2
-    """Hand-over time: joint targets (QP → policy) or torques (policy → QP) [s]."""
+    to_policy_blend: float = 0.05
+    """QP → policy hand-over: joint targets ramp from the measured joints to the policy's
+    over this time [s] (short: the policy acts at once on a robot that needs a step)."""
+    to_qp_blend: float = 0.2
+    """Policy → QP hand-over: torques ramp from the policy's PD to the QP's [s]."""
     policy_dt: float = 0.02
     """Policy period (50 Hz) [s]; the PD law runs every physics step."""
+    policy_delay: float = 0.02
+    """Actuation delay of the policy's targets [s] (trained with 10–40 ms; the
+    evaluation's ``learned`` controller uses 20 ms)."""
     action_scale: float = 0.3
     """q_ref = q* + scale · a [rad]."""
 

@@ -1,38 +1,55 @@
-"""Hybrid supervisor: the QP controller while the robot is capturable, the policy otherwise.
+"""Hybrid supervisor: the QP for ankle and hip strategies, the policy for everything else.
 
 State machine (every physics step; decisions appended to :attr:`HybridSupervisor.events`):
 
-* **qp → policy** at once when the QP does not apply (robot down: low CoM, non-foot
-  contact, large tilt), or when the capturability analysis finds no ankle, hip or step
-  option (:attr:`Capturability.NONE`) for ``to_policy_delay``. Hand-over of joint
-  targets: q_ref = (1 − α) q_switch + α (q* + 0.3 a_t), α ramping 0 → 1 over
-  ``blend_time`` from the measured joints q_switch, so the PD law starts from zero
+* **qp → policy** when the QP does not apply (robot down: low CoM, non-foot contact,
+  large tilt), or when the QP's capturability analysis says that its ankle and hip
+  strategies no longer capture ξ (:attr:`SupervisorConfig.hand_over_at`: a step is
+  needed, or nothing captures) for ``to_policy_delay`` (0: at once). The QP never steps
+  in the hybrid (:meth:`HybridSupervisor.from_onnx` disables its stepping): a step, a
+  brace or a fall is the policy's, which was trained for the whole cycle, and it gets
+  the robot while the push is still being absorbed rather than after a failed step.
+  The policy runs in the background in both modes (its observation history, previous
+  action and delayed targets stay current), so it acts at once on a hand-over. Hand-over
+  of joint targets: q_ref = (1 − α) q_switch + α (q* + 0.3 a_t), α ramping 0 → 1 over
+  ``to_policy_blend`` from the measured joints q_switch, so the PD law starts from zero
   position error instead of jumping to the policy's targets.
+* The policy acts first: it brings the robot into its own stance (or up from the
+  ground), which the QP then holds.
 * **policy → qp** once the robot has stood for ``to_qp_dwell`` without a break: the QP
   applies, ξ is at least ``to_qp_margin`` inside the feet polygon, the CoM is above
-  ``to_qp_min_com_height`` and slower than ``to_qp_max_com_speed``. Hand-over of
-  torques: τ = (1 − α) τ_policy + α τ_QP over ``blend_time``; the QP restarts from the
-  current stance.
+  ``to_qp_min_com_height`` and slower than ``to_qp_max_com_speed``. The QP restarts from
+  the policy's stance: ξ_ref and the CoM height from the current CoM, and the posture
+  task holds the joints as the policy left them (the feet may be apart after steps).
+  Hand-over of torques: τ = (1 − α) τ_policy + α τ_QP over ``to_qp_blend``.
 
 The entry conditions of the QP are stricter than its exit conditions (0-step capturable
-with margin, slow, for a dwell time, against "not even a step helps"): that gap and the
-dwell time are the hysteresis.
+with margin, slow, for a dwell time, against "the hip strategy no longer suffices"):
+that gap and the dwell time are the hysteresis.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import mujoco
 import numpy as np
 
 from hybrid_recovery.control.balance_controller import BalanceController, check_state
-from hybrid_recovery.control.config import BalanceConfig, SupervisorConfig
+from hybrid_recovery.control.config import BalanceConfig, SupervisorConfig, default_config
 from hybrid_recovery.control.diagnostics import Capturability, Event, TickDiagnostics
 from hybrid_recovery.control.policy_controller import PolicyController, pd_torque
 from hybrid_recovery.policy import OnnxPolicy
 
 QP, POLICY = "qp", "policy"
+
+
+def ankle_and_hip_only(config: BalanceConfig | None = None) -> BalanceConfig:
+    """``config`` (default: the tuned one) with the QP's stepping disabled."""
+    config = config or default_config()
+    return dataclasses.replace(config,
+                               stepping=dataclasses.replace(config.stepping, enabled=False))
 
 
 class HybridSupervisor:
@@ -47,6 +64,9 @@ class HybridSupervisor:
         mode: ``"qp"`` or ``"policy"``.
         events: Switching decisions (``"to_policy"``, ``"to_qp"``) with their reasons.
         diagnostics: The last tick's :class:`TickDiagnostics` of the capturability check.
+        joint_target: When the last output was the policy's PD law alone, its joint
+            targets q_ref (27,) [rad] (for PD servos: the same torque without the
+            round trip through τ, exact also where τ is clipped); None otherwise.
     """
 
     def __init__(self, balance: BalanceController, policy: PolicyController,
@@ -56,6 +76,7 @@ class HybridSupervisor:
         self.mode = QP
         self.events: list[Event] = []
         self.diagnostics: TickDiagnostics | None = None
+        self.joint_target: np.ndarray | None = None
         self._timer = 0.0
         self._switch_time = -np.inf
         self._q_switch = np.zeros(0)
@@ -63,28 +84,29 @@ class HybridSupervisor:
     @classmethod
     def from_onnx(cls, path: str | Path, balance_config: BalanceConfig | None = None,
                   config: SupervisorConfig | None = None) -> HybridSupervisor:
-        """The QP controller plus an exported policy (``.onnx``) at 50 Hz."""
+        """The QP controller (ankle and hip strategies, :func:`ankle_and_hip_only`) plus an
+        exported policy (``.onnx``) at 50 Hz."""
         cfg = config or SupervisorConfig()
-        policy = PolicyController(OnnxPolicy(path), cfg.policy_dt, cfg.action_scale)
-        return cls(BalanceController(balance_config), policy, cfg)
+        policy = PolicyController(OnnxPolicy(path), cfg.policy_dt, cfg.action_scale,
+                                  cfg.policy_delay)
+        return cls(BalanceController(ankle_and_hip_only(balance_config)), policy, cfg)
 
     def reset(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
-        """Starts in the QP mode if the robot stands (the QP applies), else in the policy."""
+        """Starts with the policy: it stands the robot up in its own stance, which the QP
+        then holds (policy → qp after ``to_qp_dwell``)."""
         self.balance.reset(model, data)
         self.policy.reset(model, data)
-        self.events = []
         self._timer = 0.0
         self._switch_time = -np.inf
         first = self.balance.assess(model, data)
         self.diagnostics = first
-        self.mode = QP if first.applicable else POLICY
-        if self.mode == POLICY:
-            self._q_switch = self.policy.joints(data)[0].copy()
-            self.events.append(Event(float(data.time), "to_policy",
-                                     f"start: QP not applicable ({first.reason})"))
+        self.mode = POLICY
+        self._q_switch = self.policy.joints(data)[0].copy()
+        why = "QP applicable" if first.applicable else f"QP not applicable ({first.reason})"
+        self.events = [Event(float(data.time), "to_policy", f"start: the policy stands first "
+                             f"({why})")]
 
-    def _alpha(self, t: float) -> float:
-        blend = self.config.blend_time
+    def _alpha(self, t: float, blend: float) -> float:
         return 1.0 if blend <= 0.0 else float(np.clip((t - self._switch_time) / blend, 0.0, 1.0))
 
     def __call__(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
@@ -95,48 +117,53 @@ class HybridSupervisor:
         """
         check_state(data)
         t, dt = float(data.time), float(model.opt.timestep)
+        cfg = self.config
+        self.joint_target = None
+        q_ref = self.policy.update_targets(model, data)  # warm in either mode
         if self.mode == QP:
             torque = self.balance(model, data)
             diag = self.diagnostics = self.balance.diagnostics
             assert diag is not None
             if not diag.applicable:
                 return self._to_policy(model, data, f"QP not applicable: {diag.reason}")
-            self._timer = self._timer + dt if diag.capturability == Capturability.NONE else 0.0
-            if self._timer >= self.config.to_policy_delay - 1e-9:
-                return self._to_policy(model, data, "not capturable by ankle, hip or steps "
-                                       f"for {self._timer:.3f} s")
-            alpha = self._alpha(t)
+            beyond = diag.capturability >= cfg.hand_over_at
+            self._timer = self._timer + dt if beyond else 0.0
+            if beyond and self._timer >= cfg.to_policy_delay - 1e-9:
+                return self._to_policy(model, data, "not capturable by the ankle or hip "
+                                       f"strategy ({diag.capturability.name.lower()})")
+            alpha = self._alpha(t, cfg.to_qp_blend)
             if alpha < 1.0:  # policy → QP hand-over still blending
-                q_ref = self.policy.update_targets(model, data)
                 q, qd = self.policy.joints(data)
                 torque = (1.0 - alpha) * pd_torque(q_ref, q, qd) + alpha * torque
             return torque
         diag = self.diagnostics = self.balance.assess(model, data)
-        cfg = self.config
         standing = (diag.applicable and diag.capturability == Capturability.ZERO_STEP
                     and diag.margin >= cfg.to_qp_margin
                     and diag.com[2] >= cfg.to_qp_min_com_height
                     and float(np.linalg.norm(diag.com_vel)) <= cfg.to_qp_max_com_speed)
         self._timer = self._timer + dt if standing else 0.0
-        q_ref = self.policy.update_targets(model, data)
         q, qd = self.policy.joints(data)
-        alpha = self._alpha(t)
-        policy_torque = pd_torque((1.0 - alpha) * self._q_switch + alpha * q_ref, q, qd)
+        alpha = self._alpha(t, cfg.to_policy_blend)
+        target = (1.0 - alpha) * self._q_switch + alpha * q_ref
+        policy_torque = pd_torque(target, q, qd)
         if self._timer >= cfg.to_qp_dwell - 1e-9:
             self.mode, self._timer, self._switch_time = QP, 0.0, t
             self.events.append(Event(t, "to_qp", f"standing for {cfg.to_qp_dwell:.2f} s "
                                      f"(margin {diag.margin:.3f} m)"))
-            self.balance.reset(model, data)
+            self.balance.reset(model, data, posture=q.copy())
             torque = self.balance(model, data)
-            return policy_torque * (1.0 - self._alpha(t)) + self._alpha(t) * torque
+            alpha = self._alpha(t, cfg.to_qp_blend)
+            return policy_torque * (1.0 - alpha) + alpha * torque
+        self.joint_target = target
         return policy_torque
 
     def _to_policy(self, model: mujoco.MjModel, data: mujoco.MjData, reason: str) -> np.ndarray:
         t = float(data.time)
         self.mode, self._timer, self._switch_time = POLICY, 0.0, t
         self.events.append(Event(t, "to_policy", reason))
-        self.policy.reset(model, data)
         self._q_switch = self.policy.joints(data)[0].copy()
         q_ref = self.policy.update_targets(model, data)
         q, qd = self.policy.joints(data)
-        return pd_torque((1.0 - self._alpha(t)) * self._q_switch + self._alpha(t) * q_ref, q, qd)
+        alpha = self._alpha(t, self.config.to_policy_blend)
+        self.joint_target = (1.0 - alpha) * self._q_switch + alpha * q_ref
+        return pd_torque(self.joint_target, q, qd)

@@ -39,18 +39,20 @@ def pelvis_orientation_task(state: RobotState, heading: np.ndarray, cfg: QpConfi
     return Task("pelvis_orientation", state.pelvis_jacobian, target, cfg.w_pelvis_orientation)
 
 
-def posture_task(state: RobotState, selector: np.ndarray, weights: np.ndarray, cfg: QpConfig
-                 ) -> Task:
-    """Joint accelerations toward q* (27 rows).
+def posture_task(state: RobotState, selector: np.ndarray, weights: np.ndarray, cfg: QpConfig,
+                 reference: np.ndarray | None = None) -> Task:
+    """Joint accelerations toward a posture q_ref (27 rows).
 
     Args:
         state: The tick's state.
         selector: S = [0 I], shape (27, nv).
         weights: Per-joint weights, shape (27,).
         cfg: Gains.
+        reference: q_ref, shape (27,) [rad]; None for the default pose q*.
     """
     joints, rates = state.qpos[7:], state.qvel[6:]
-    target = cfg.posture_kp * (constants.DEFAULT_JOINT_POS - joints) - cfg.posture_kd * rates
+    ref = constants.DEFAULT_JOINT_POS if reference is None else reference
+    target = cfg.posture_kp * (ref - joints) - cfg.posture_kd * rates
     return Task("posture", selector, target, weights)
 
 

@@ -16,9 +16,11 @@ controller, the supervisor with its PD law written out) run on this model::
 
 from __future__ import annotations
 
+import copy
 from pathlib import Path
 
 import mujoco
+import numpy as np
 
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.mjcf import load_spec
@@ -43,17 +45,20 @@ def check_torque_model(model: mujoco.MjModel) -> None:
             raise ValueError(MODEL_MESSAGE)
 
 
-def torque_spec(path: str | Path | None = None, timestep: float = CONTROL_DT) -> mujoco.MjSpec:
+def torque_spec(path: str | Path | None = None, timestep: float = CONTROL_DT,
+                rotor_inertia: bool = False) -> mujoco.MjSpec:
     """The H1-2 spec with a floor and 27 motor actuators in motor order.
 
     Args:
         path: Robot MJCF; ``None`` for the project's H1-2.
         timestep: Physics step [s].
+        rotor_inertia: Give the joints the project's rotor inertia (armature) [kg·m²].
 
     Returns:
         The spec (extend it, e.g. with sensors, then compile).
     """
-    spec = load_spec(path, floor=True, actuators=False, timestep=timestep)
+    spec = load_spec(path, floor=True, actuators=False, timestep=timestep,
+                     rotor_inertia=rotor_inertia)
     for name, tau_max in zip(constants.JOINT_NAMES, constants.EFFORT_LIMITS, strict=True):
         motor = spec.add_actuator(name=name, target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
         motor.set_to_motor()
@@ -62,7 +67,37 @@ def torque_spec(path: str | Path | None = None, timestep: float = CONTROL_DT) ->
     return spec
 
 
-def load_torque_model(path: str | Path | None = None, timestep: float = CONTROL_DT
-                      ) -> mujoco.MjModel:
+def torque_twin(servo_model: mujoco.MjModel) -> mujoco.MjModel:
+    """The torque-controlled twin of a PD-servo model: same robot, bodies, geoms and sites;
+    actuator i is a unit motor on joint i with ``ctrlrange = ±EFFORT_LIMITS[i]``.
+
+    A torque controller then runs on the twin while the servo model is simulated:
+    τ becomes the servo target q_ref = q + (τ + K_D q̇) / K_P (:func:`servo_target`).
+
+    Raises:
+        ValueError: ``servo_model`` does not have one actuator per joint in motor order.
+    """
+    twin = copy.copy(servo_model)
+    if twin.nu != constants.NUM_JOINTS:
+        raise ValueError(MODEL_MESSAGE)
+    twin.actuator_gaintype[:] = mujoco.mjtGain.mjGAIN_FIXED
+    twin.actuator_gainprm[:] = 0.0
+    twin.actuator_gainprm[:, 0] = 1.0
+    twin.actuator_biastype[:] = mujoco.mjtBias.mjBIAS_NONE
+    twin.actuator_biasprm[:] = 0.0
+    twin.actuator_ctrllimited[:] = 1
+    twin.actuator_ctrlrange[:] = np.stack([-constants.EFFORT_LIMITS, constants.EFFORT_LIMITS], 1)
+    check_torque_model(twin)
+    return twin
+
+
+def servo_target(torque: np.ndarray, q: np.ndarray, qd: np.ndarray) -> np.ndarray:
+    """q_ref (27,) [rad] for which the PD servos τ = K_P (q_ref − q) − K_D q̇ apply
+    ``torque`` (27,) [N·m] (the servos clip at the same ±τ_max)."""
+    return q + (torque + constants.KD * qd) / constants.KP
+
+
+def load_torque_model(path: str | Path | None = None, timestep: float = CONTROL_DT,
+                      rotor_inertia: bool = False) -> mujoco.MjModel:
     """Compiles :func:`torque_spec`: ``ctrl`` = joint torques τ (27,) [N·m], motor order."""
-    return torque_spec(path, timestep).compile()
+    return torque_spec(path, timestep, rotor_inertia).compile()

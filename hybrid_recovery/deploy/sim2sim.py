@@ -4,7 +4,8 @@ The same pieces as on the robot, without DDS: :class:`~.policy_runner.PolicyRunn
 training observation builder), :class:`~.state_machine.SafetyStateMachine` (faults →
 damping) and the motor-driver PD of :class:`~.sim_robot.SimRobot` (MuJoCo position
 actuators with constants.KP/KD from the command). Any H1-2 MJCF loads: the project's own
-(default) or the manufacturer's mesh model. Start poses are settled as in training
+(default) or the manufacturer's mesh model, through the same loader as the evaluation
+(:func:`hybrid_recovery.robot.mjcf.load_spec`). Start poses are settled as in training
 (:func:`hybrid_recovery.sim.initial_states.settle_pool`); a torso push and an actuation
 delay can be added. Writes ``trace.csv``, ``trace.png``, ``summary.json`` and, with a
 renderer, ``video.mp4``.
@@ -26,13 +27,14 @@ import numpy as np
 from hybrid_recovery.deploy.balance_trace import BalanceTrace
 from hybrid_recovery.deploy.policy_runner import PolicyRunner
 from hybrid_recovery.deploy.robot_io import JointCommand
-from hybrid_recovery.deploy.sim_robot import SimRobot, SimRobotConfig, implicit_pd_model
+from hybrid_recovery.deploy.sim_robot import SimRobot, SimRobotConfig
 from hybrid_recovery.deploy.state_machine import Phase, SafetyConfig, SafetyStateMachine
 from hybrid_recovery.dynamics import RobotModel
 from hybrid_recovery.observation import projected_gravity
 from hybrid_recovery.robot.constants import UPRIGHT_COM_HEIGHT
 from hybrid_recovery.robot.limits import SafetyLimits
 from hybrid_recovery.sim.initial_states import POSES, settle_pool
+from hybrid_recovery.sim.scene import build_scene
 
 
 @dataclass
@@ -41,6 +43,10 @@ class Sim2SimConfig:
 
     model_path: str | None = None
     """H1-2 MJCF; None for the project's own."""
+    rotor_inertia: bool = False
+    """Give the joints the project's rotor inertia (for a file without armature)."""
+    start_qpos: np.ndarray | None = None
+    """Start configuration (nq,), at rest, instead of the settled ``pose``."""
     pose: str = "standing"
     """Start pose, one of ``initial_states.POSES``, settled for its settle time."""
     seconds: float = 10.0
@@ -65,11 +71,11 @@ class Sim2SimConfig:
 
 
 def start_state(model_path: str | None, pose: str, physics_dt: float,
-                seed: int = 0) -> tuple[np.ndarray, np.ndarray]:
+                seed: int = 0, rotor_inertia: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """A settled (qpos, qvel) of ``pose`` on the given model (no joint noise)."""
     if pose not in POSES:
         raise ValueError(f"pose must be one of {POSES}, got {pose!r}")
-    model, _ = implicit_pd_model(model_path, physics_dt)
+    model, _ = build_scene(model_path, physics_dt, rotor_inertia=rotor_inertia)
     pool = settle_pool(model, per_pose=1, rng=np.random.default_rng(seed), joint_noise=0.0,
                        nthread=1)
     qpos, qvel = pool[pose]
@@ -82,8 +88,13 @@ def run_sim2sim(policy_dir: str | Path, out_dir: str | Path,
     cfg = cfg or Sim2SimConfig()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    robot_cfg = SimRobotConfig(model_path=cfg.model_path, physics_dt=0.001)
-    qpos, qvel = start_state(cfg.model_path, cfg.pose, robot_cfg.physics_dt, cfg.seed)
+    robot_cfg = SimRobotConfig(model_path=cfg.model_path, physics_dt=0.001,
+                               rotor_inertia=cfg.rotor_inertia)
+    if cfg.start_qpos is None:
+        qpos, qvel = start_state(cfg.model_path, cfg.pose, robot_cfg.physics_dt, cfg.seed,
+                                 cfg.rotor_inertia)
+    else:
+        qpos, qvel = np.asarray(cfg.start_qpos, dtype=float), None
     robot = SimRobot(robot_cfg, qpos, qvel)
     safety = SafetyConfig(SafetyLimits.from_robot(cfg.model_path), skip_startup=not cfg.startup)
     sm = SafetyStateMachine(safety)
@@ -134,8 +145,11 @@ def _summary(trace: BalanceTrace, sm: SafetyStateMachine, cfg: Sim2SimConfig) ->
     com_z, tilt, t = trace.column("com_z"), trace.column("tilt_deg"), trace.column("t")
     upright = com_z > UPRIGHT_COM_HEIGHT
     first_up = float(t[np.argmax(upright)]) if upright.any() else None
+    config = asdict(cfg)
+    if cfg.start_qpos is not None:
+        config["start_qpos"] = np.asarray(cfg.start_qpos).tolist()
     return {
-        "config": asdict(cfg), "fault": None if sm.fault is None else sm.fault.value,
+        "config": config, "fault": None if sm.fault is None else sm.fault.value,
         "fault_detail": sm.fault_detail, "final_phase": sm.phase.value,
         "final_com_height": float(com_z[-1]), "min_com_height": float(com_z.min()),
         "max_tilt_deg": float(tilt.max()), "final_tilt_deg": float(tilt[-1]),

@@ -19,7 +19,6 @@ orientation plus its weight, released after ``gantry_s`` seconds of commands.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -28,7 +27,7 @@ from hybrid_recovery.deploy.robot_io import JointCommand, LowStateReading
 from hybrid_recovery.deploy.wire import decode_low_cmd, encode_low_state
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.mjcf import default_qpos
-from hybrid_recovery.sim.scene import SensorLayout, build_scene
+from hybrid_recovery.sim.scene import build_scene
 
 
 @dataclass
@@ -39,6 +38,8 @@ class SimRobotConfig:
     """H1-2 MJCF; None for the project's own model."""
     physics_dt: float = 0.001
     """[s] (1 kHz)."""
+    rotor_inertia: bool = False
+    """Give the joints the project's rotor inertia (a file without armature)."""
     gantry_s: float = 0.0
     """Hold the pelvis on the gantry for this long after the first accepted command [s];
     0 starts on the ground."""
@@ -48,20 +49,6 @@ class SimRobotConfig:
     """[N/m] and, ×0.05, [N·m/rad]."""
     mode_machine: int = 6
     """Value reported in ``LowState_.mode_machine`` (any constant; echoed by controllers)."""
-
-
-def implicit_pd_model(path: str | Path | None,
-                      physics_dt: float) -> tuple[mujoco.MjModel, SensorLayout]:
-    """The training scene (robot, floor, PD actuators, torso IMU sensors) at ``physics_dt``.
-
-    The integrator is set to ``implicitfast`` whatever the file says: the PD's damping is
-    then integrated implicitly, as in the project's model. The reference mesh model has no
-    ``<option>``, and with MuJoCo's default Euler the light wrists (no armature) oscillate
-    at 1 kHz under kd = 1 (|q̇| ≈ 60 rad/s after 5 s of standing).
-    """
-    model, layout = build_scene(path, physics_dt)
-    model.opt.integrator = mujoco.mjtIntegrator.mjINT_IMPLICITFAST
-    return model, layout
 
 
 class SimRobot:
@@ -77,7 +64,8 @@ class SimRobot:
     def __init__(self, cfg: SimRobotConfig | None = None, qpos: np.ndarray | None = None,
                  qvel: np.ndarray | None = None) -> None:
         self.cfg = cfg = cfg or SimRobotConfig()
-        self.model, self.layout = implicit_pd_model(cfg.model_path, cfg.physics_dt)
+        self.model, self.layout = build_scene(cfg.model_path, cfg.physics_dt,
+                                              rotor_inertia=cfg.rotor_inertia)
         m = self.model
         self.data = mujoco.MjData(m)
         self.qadr = np.array([m.jnt_qposadr[m.joint(n).id] for n in constants.JOINT_NAMES])

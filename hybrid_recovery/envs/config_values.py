@@ -2,7 +2,9 @@
 
 :func:`checked_value` turns a JSON-parsed value into the value of a dataclass field's
 declared type, or refuses it naming the key: ``config key 'physics_dt' must be > 0, got
-0``. Infinity is a number here (several fields use it for "no limit"); NaN never is.
+0``. EnvConfig keys are dotted paths; ``ppo.<field>`` and ``train.<field>`` are the
+amendable training settings (``train --amend``). Infinity is a number here (several
+fields use it for "no limit"); NaN never is.
 """
 
 from __future__ import annotations
@@ -54,6 +56,20 @@ RANGES: dict[str, tuple[float, bool, float]] = {
     "rises.advance": (0.0, False, 1.0),
     "rises.retreat": (0.0, True, 1.0),
     "rises.window": (1, True, math.inf),
+    "ppo.clip_param": (0.0, False, math.inf),
+    "ppo.gamma": (0.0, False, 1.0),
+    "ppo.lam": (0.0, True, 1.0),
+    "ppo.learning_rate": (0.0, False, math.inf),
+    "ppo.desired_kl": (0.0, False, math.inf),
+    "ppo.entropy_coef": (0.0, True, math.inf),
+    "ppo.value_loss_coef": (0.0, True, math.inf),
+    "ppo.num_learning_epochs": (1, True, math.inf),
+    "ppo.num_mini_batches": (1, True, math.inf),
+    "ppo.max_grad_norm": (0.0, False, math.inf),
+    "train.max_std": (0.0, False, math.inf),
+    "train.save_interval": (1, True, math.inf),
+    "train.keep_checkpoints": (1, True, math.inf),
+    "train.num_steps_per_env": (1, True, math.inf),
 }
 """Key → (lower bound, lower bound allowed, upper bound allowed) of every number in the
 value (each entry of a pair or a table); keys not listed take any number but NaN."""

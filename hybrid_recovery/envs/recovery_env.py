@@ -160,8 +160,10 @@ class RecoveryEnv(VecEnv):
         """
         raw = actions.detach().cpu().numpy()
         bad_action = ~np.isfinite(raw).all(1)
+        if bad_action.any():
+            raw = np.where(bad_action[:, None], 0.0, raw)
         self.last_action = self.action
-        self.action = clip_action(np.where(bad_action[:, None], 0.0, raw))
+        self.action = clip_action(raw)
         lo_hi = self.randomizer.jnt_range[:, 1:1 + self.num_actions]
         # within this episode's (scaled) joint ranges, applied delay_steps substeps late
         self.ctrl[:] = joint_targets(self.action, self.cfg.action_scale,

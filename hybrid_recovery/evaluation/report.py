@@ -13,6 +13,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from hybrid_recovery.dynamics.support import support_polygon  # noqa: E402
+from hybrid_recovery.evaluation.overlay import difference_table, overlay_figures  # noqa: E402
 from hybrid_recovery.evaluation.scenario import SWEEP_DIRECTIONS  # noqa: E402
 from hybrid_recovery.evaluation.success import wilson_interval  # noqa: E402
 
@@ -256,6 +257,12 @@ def write_report(results: dict[str, list[dict]], out_dir: str | Path, title: str
         md += ["## Comparison", "", comparison_table(results, provenance), ""]
         if stuck_low_figure(results, provenance or {}, out / "stuck_low_vs_budget.png"):
             md += ["![stuck-low rate by training budget](stuck_low_vs_budget.png)", ""]
+        first = next(iter(results))
+        md += [f"Success-rate differences against {first} (Newcombe 95 % intervals):", "",
+               difference_table(results), ""]
+        if sweep_plots and all(results.values()):
+            for caption, name in overlay_figures(results, out):
+                md += [f"![{caption}]({name})", ""]
     for label, rows in results.items():
         safe = "".join(ch if ch.isalnum() else "_" for ch in label)[:40]
         md += [f"## {label}", "", summary_table(rows), ""]

@@ -27,16 +27,17 @@ class EvaluationInterrupted(KeyboardInterrupt):
 
 
 def _init_worker(controller: str, model_path: str | None, contact: str,
-                 stop_on_success: bool = False, ignore_sigint: bool = False) -> None:
+                 ignore_sigint: bool = False, rotor_inertia: bool = False,
+                 stop_on_success: bool = False) -> None:
     if ignore_sigint:  # the parent alone handles Ctrl-C (one line, not one per worker)
         signal.signal(signal.SIGINT, signal.SIG_IGN)
     _WORKER.update(controller=make_controller(controller), model=model_path, contact=contact,
-                   stop=stop_on_success)
+                   rotor_inertia=rotor_inertia, stop=stop_on_success)
 
 
 def _work(scenario: Scenario) -> dict:
     return run_trial(_WORKER["controller"], scenario, _WORKER["model"], _WORKER["contact"],
-                     stop_on_success=_WORKER["stop"])
+                     rotor_inertia=_WORKER["rotor_inertia"], stop_on_success=_WORKER["stop"])
 
 
 def completed_keys(results: Path) -> set[str]:
@@ -117,7 +118,7 @@ def header_provenance(header: dict) -> dict | None:
 def run_protocol(scenarios: list[Scenario], controller: str, results: str | Path,
                  model_path: str | None = None, contact: str = "default", workers: int = 2,
                  header: dict | None = None, progress: bool = True,
-                 stop_on_success: bool = False) -> list[dict]:
+                 rotor_inertia: bool = False, stop_on_success: bool = False) -> list[dict]:
     """Runs every scenario not yet in ``results`` and appends one JSON line per trial.
 
     With ``stop_on_success`` each trial ends once it has succeeded (see
@@ -125,9 +126,9 @@ def run_protocol(scenarios: list[Scenario], controller: str, results: str | Path
 
     A killed run resumes where it stopped: finished trials are skipped by key. The first
     line of a new file is a header with the controller (and its policy's provenance), the
-    model, the contact setting and ``header`` (the protocol's configuration and seed); an
-    existing file is resumed only if its header is the same, since trial keys name the
-    scenario, not who ran it.
+    model, the contact setting, the rotor inertia and ``header`` (the protocol's
+    configuration and seed); an existing file is resumed only if its header is the same,
+    since trial keys name the scenario, not who ran it.
 
     Ctrl-C stops the run: every finished trial is already in the file (written and
     flushed as it arrives), the workers are ended, and
@@ -147,6 +148,8 @@ def run_protocol(scenarios: list[Scenario], controller: str, results: str | Path
     results.parent.mkdir(parents=True, exist_ok=True)
     meta = {"key": HEADER_KEY, "controller": controller, "model": model_path,
             "contact": contact, **(header or {})}
+    if rotor_inertia:  # absent otherwise: older results files stay resumable
+        meta["rotor_inertia"] = True
     if (policy := policy_provenance(built)) is not None:
         meta["policy"] = policy
     if results.is_file():
@@ -160,13 +163,14 @@ def run_protocol(scenarios: list[Scenario], controller: str, results: str | Path
         if results.read_bytes()[-1:] not in (b"", b"\n"):
             out.write("\n")  # end a line torn by a killed run
         if workers <= 1:
-            _init_worker(controller, model_path, contact, stop_on_success)
+            _init_worker(controller, model_path, contact, rotor_inertia=rotor_inertia,
+                         stop_on_success=stop_on_success)
             rows: Iterator[dict] = map(_work, todo)
             pool = None
         else:
             pool = mp.get_context("fork").Pool(workers, _init_worker,
-                                               (controller, model_path, contact,
-                                                stop_on_success, True))
+                                               (controller, model_path, contact, True,
+                                                rotor_inertia, stop_on_success))
             rows = pool.imap_unordered(_work, todo)
         try:
             for row in rows:

@@ -19,7 +19,7 @@ from hybrid_recovery.evaluation.success import recovery_time, stuck_low
 from hybrid_recovery.observation import projected_gravity
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.mjcf import load_mjmodel
-from hybrid_recovery.sim.initial_states import perturb_start, seat_single, settle_pool
+from hybrid_recovery.sim.initial_states import mirror_qpos, perturb_start, seat_single, settle_pool
 
 RECORD_DT = 0.02
 """Sampling period of the recorded trace [s] (50 Hz, the control rate)."""
@@ -29,14 +29,15 @@ POOL_SIZE = 8
 
 @functools.lru_cache(maxsize=4)
 def eval_model(model_path: str | None, timestep: float, torque_control: bool,
-               contact: str) -> mujoco.MjModel:
-    """The evaluation model (cached per process): robot, floor, actuators, contact preset."""
+               contact: str, rotor_inertia: bool = False) -> mujoco.MjModel:
+    """The evaluation model (cached per process): robot, floor, actuators, contact preset;
+    loaded as sim-to-sim loads it (:func:`hybrid_recovery.robot.mjcf.load_spec`)."""
     if torque_control:
         from hybrid_recovery.control.torque_model import load_torque_model
 
-        model = load_torque_model(model_path, timestep=timestep)
+        model = load_torque_model(model_path, timestep=timestep, rotor_inertia=rotor_inertia)
     else:
-        model = load_mjmodel(model_path, timestep=timestep)
+        model = load_mjmodel(model_path, timestep=timestep, rotor_inertia=rotor_inertia)
     apply_contact_preset(model, contact)
     return model
 
@@ -48,37 +49,48 @@ def physics_step(controller, model_path: str | None) -> float:
 
 
 @functools.lru_cache(maxsize=4)
-def _pool(model_path: str | None, contact: str, timestep: float) -> dict:
-    model = eval_model(model_path, timestep, False, contact)
+def _pool(model_path: str | None, contact: str, timestep: float, rotor_inertia: bool) -> dict:
+    model = eval_model(model_path, timestep, False, contact, rotor_inertia)
     return settle_pool(model, POOL_SIZE, np.random.default_rng(12345), nthread=1)
 
 
 def start_state(scenario: Scenario, model_path: str | None, contact: str,
-                timestep: float = 0.005) -> np.ndarray:
+                timestep: float = 0.005, rotor_inertia: bool = False) -> np.ndarray:
     """The trial's initial qpos: a settled state of the pose with the paper's
-    initialisation noise scaled by ``scenario.noise``."""
+    initialisation noise scaled by ``scenario.noise``.
+
+    A push with a rightward component (sin(direction) < 0) starts from the mirror image
+    (:func:`~hybrid_recovery.sim.initial_states.mirror_qpos`) of the state its leftward
+    twin starts from, so that left and right cells differ only in the side pushed.
+    """
     check_pose(scenario.pose)
-    model = eval_model(model_path, timestep, False, contact)
-    pool = _pool(model_path, contact, timestep)[scenario.pose][0]
+    model = eval_model(model_path, timestep, False, contact, rotor_inertia)
+    pool = _pool(model_path, contact, timestep, rotor_inertia)[scenario.pose][0]
     rng = np.random.default_rng(scenario.seed)
     dr, k = DomainRandConfig(), scenario.noise
     qadr = model.jnt_qposadr[1:1 + constants.NUM_JOINTS]
     start = pool[rng.integers(len(pool))][None]
-    return perturb_start(start, rng, k * dr.init_base_pos, k * dr.init_base_rot,
+    qpos = perturb_start(start, rng, k * dr.init_base_pos, k * dr.init_base_rot,
                          k * dr.init_joint_pos, qadr,
                          model.jnt_range[1:1 + constants.NUM_JOINTS])[0]
+    if scenario.force > 0 and np.sin(scenario.direction) < -1e-9:
+        qpos = mirror_qpos(qpos, qadr)
+    return qpos
 
 
 def run_trial(controller, scenario: Scenario, model_path: str | Path | None = None,
               contact: str = "default", record: bool = False,
               on_sample: Callable[[mujoco.MjModel, mujoco.MjData, np.ndarray], None]
-              | None = None, stop_on_success: bool = False) -> dict:
+              | None = None, rotor_inertia: bool = False,
+              start_qpos: np.ndarray | None = None, stop_on_success: bool = False) -> dict:
     """Runs one trial and measures it.
 
     ``on_sample(model, data, push_force)`` is called at every recorded sample (50 Hz),
-    e.g. to render frames. With ``stop_on_success`` the trial ends as soon as the
-    success criterion is met (the standing condition held for 1 s after the push), which
-    leaves ``success`` and ``recovery_time`` unchanged and shortens the trial.
+    e.g. to render frames. ``rotor_inertia`` gives a model file without armature the
+    project's rotor inertia; ``start_qpos`` (nq,) replaces the scenario's start state.
+    With ``stop_on_success`` the trial ends as soon as the success criterion is met (the
+    standing condition held for 1 s after the push), which leaves ``success`` and
+    ``recovery_time`` unchanged and shortens the trial.
 
     Returns:
         A flat dict: the scenario, ``success`` (the paper's criterion, after the push for a
@@ -91,9 +103,10 @@ def run_trial(controller, scenario: Scenario, model_path: str | Path | None = No
     """
     path = None if model_path is None else str(model_path)
     timestep = physics_step(controller, path)
-    model = eval_model(path, timestep, controller.torque_control, contact)
+    model = eval_model(path, timestep, controller.torque_control, contact, rotor_inertia)
     data = mujoco.MjData(model)
-    data.qpos[:] = start_state(scenario, path, contact, timestep)
+    data.qpos[:] = (start_state(scenario, path, contact, timestep, rotor_inertia)
+                    if start_qpos is None else start_qpos)
     seat_single(model, data)
     mujoco.mj_forward(model, data)
     data.ctrl[:] = 0.0 if controller.torque_control else data.qpos[
@@ -151,7 +164,7 @@ def run_trial(controller, scenario: Scenario, model_path: str | Path | None = No
     info = controller.info() if hasattr(controller, "info") else {}
     result = {
         **scenario.to_dict(), "key": scenario.key, "controller": controller.name,
-        "model": path or "own", "contact": contact,
+        "model": path or "own", "contact": contact, "rotor_inertia": rotor_inertia,
         "success": t_rec is not None, "recovery_time": t_rec,
         "standing_at_end": bool(com[-1, 2] > constants.UPRIGHT_COM_HEIGHT),
         "fell": bool((com[:, 2] < 0.5).any()),

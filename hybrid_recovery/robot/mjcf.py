@@ -15,6 +15,7 @@ import mujoco
 import numpy as np
 
 from hybrid_recovery.robot import constants
+from hybrid_recovery.robot.conform import conform_spec
 
 H1_2_MJCF: Path = Path(__file__).resolve().parents[2] / "models" / "h1_2" / "h1_2.xml"
 """The project's own H1-2 MJCF, ``models/h1_2/h1_2.xml`` at the repository top level.
@@ -33,6 +34,7 @@ def load_spec(
     floor: bool = True,
     actuators: bool = True,
     timestep: float | None = None,
+    rotor_inertia: bool = False,
 ) -> mujoco.MjSpec:
     """Parses an H1-2 MJCF with a floor and one PD position actuator per joint.
 
@@ -47,6 +49,8 @@ def load_spec(
             that name.
         actuators: Add the 27 position actuators.
         timestep: Simulation timestep [s]; ``None`` keeps the file's.
+        rotor_inertia: Give every joint the project's model's armature [kg·m²] (for a
+            file without rotor inertia, such as the manufacturer's).
 
     Returns:
         The model's spec, ready to extend (e.g. with sensors) or compile.
@@ -76,6 +80,7 @@ def load_spec(
         spec.delete(actuator)
     if actuators:
         _add_position_actuators(spec)
+    conform_spec(spec, FLOOR_NAME, rotor_inertia)
     return spec
 
 
@@ -85,13 +90,15 @@ def load_mjmodel(
     floor: bool = True,
     actuators: bool = True,
     timestep: float | None = None,
+    rotor_inertia: bool = False,
 ) -> mujoco.MjModel:
     """Compiles :func:`load_spec` (see there for the arguments and errors).
 
     Raises:
         ValueError: Also when MuJoCo cannot compile the file (the message names it).
     """
-    spec = load_spec(path, floor=floor, actuators=actuators, timestep=timestep)
+    spec = load_spec(path, floor=floor, actuators=actuators, timestep=timestep,
+                     rotor_inertia=rotor_inertia)
     try:
         return spec.compile()
     except ValueError as err:

@@ -82,8 +82,8 @@ def quat_mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def lowest_point(model: mujoco.MjModel, geom_xpos: np.ndarray, geom_xmat: np.ndarray,
                  geoms: np.ndarray) -> np.ndarray:
-    """Lowest z over the given collision geoms (exact for spheres, capsules and boxes; the
-    bounding sphere for other shapes such as meshes).
+    """Lowest z over the given collision geoms (exact for spheres, capsules, boxes and
+    meshes (their vertices); the bounding sphere for other shapes).
 
     Args:
         model: the model (sizes and types of the geoms).
@@ -104,7 +104,35 @@ def lowest_point(model: mujoco.MjModel, geom_xpos: np.ndarray, geom_xmat: np.nda
     other = np.broadcast_to(model.geom_rbound[geoms], box.shape)  # meshes: bounding sphere
     extent = np.select([gtype == mujoco.mjtGeom.mjGEOM_BOX, gtype == mujoco.mjtGeom.mjGEOM_CAPSULE,
                         gtype == mujoco.mjtGeom.mjGEOM_SPHERE], [box, capsule, sphere], other)
-    return np.min(pos[..., 2] - extent, axis=1)
+    low = pos[..., 2] - extent
+    for k in np.flatnonzero(gtype == mujoco.mjtGeom.mjGEOM_MESH):
+        mesh = model.geom_dataid[geoms[k]]
+        adr, n = model.mesh_vertadr[mesh], model.mesh_vertnum[mesh]
+        vert = model.mesh_vert[adr:adr + n]  # (V, 3) in the geom frame
+        low[:, k] = pos[:, k, 2] + np.min(z_axis[:, k] @ vert.T, axis=1)
+    return np.min(low, axis=1)
+
+
+def mirror_qpos(qpos: np.ndarray, qadr: np.ndarray) -> np.ndarray:
+    """The left–right mirror image of free-base configurations through the world x–z plane.
+
+    y → −y for the base position; the base quaternion (w, x, y, z) → (w, −x, y, −z) (an
+    axial vector's x and z flip); joints ``q → MIRROR_SIGN · q[MIRROR_JOINT_INDEX]``.
+
+    Args:
+        qpos: configurations, shape (..., nq).
+        qadr: qpos addresses of the 27 joints in motor order, shape (27,).
+
+    Returns:
+        The mirrored configurations, shape (..., nq).
+    """
+    out = np.array(qpos, dtype=float, copy=True)
+    out[..., 1] *= -1.0
+    out[..., 4] *= -1.0
+    out[..., 6] *= -1.0
+    joints = np.asarray(qpos)[..., qadr]
+    out[..., qadr] = constants.MIRROR_SIGN * joints[..., constants.MIRROR_JOINT_INDEX]
+    return out
 
 
 def robot_geoms(model: mujoco.MjModel) -> np.ndarray:

@@ -62,7 +62,7 @@ class SensorLayout:
 
 
 def build_scene(path: str | Path | None = None, timestep: float = 0.005,
-                delay_samples: int = 0):
+                delay_samples: int = 0, rotor_inertia: bool = False):
     """Compiles the robot with floor, actuators and the MDP's sensors.
 
     Args:
@@ -72,11 +72,14 @@ def build_scene(path: str | Path | None = None, timestep: float = 0.005,
             substep) and applies ``ctrl`` ``actuator_delay`` seconds late, held
             piecewise constant (MuJoCo's native actuator delay); the delay itself is
             set per simulation.
+        rotor_inertia: Give the joints the project's rotor inertia (armature) [kg·m²],
+            for a file without it (see :func:`hybrid_recovery.robot.mjcf.load_spec`).
 
     Returns:
         (model, layout): the compiled ``mujoco.MjModel`` and its :class:`SensorLayout`.
     """
-    spec = load_spec(path, floor=True, actuators=True, timestep=timestep)
+    spec = load_spec(path, floor=True, actuators=True, timestep=timestep,
+                     rotor_inertia=rotor_inertia)
     if delay_samples > 0:
         for actuator in spec.actuators:
             actuator.nsample, actuator.interp, actuator.delay = delay_samples, 0, 0.0

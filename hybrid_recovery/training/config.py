@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field, fields, replace
-from typing import Any
+from typing import Any, get_type_hints
 
+from hybrid_recovery.envs.config_values import checked_value
 from hybrid_recovery.envs.removed import drop_removed
 
 
@@ -26,6 +27,10 @@ class PPOConfig:
     use_clipped_value_loss: bool = True
     symmetry: bool = False
     """Left/right mirror data augmentation (rsl-rl's symmetry extension); off as in the paper."""
+    mixed_precision: bool = False
+    """bf16 autocast on the CPU for the update's forward passes and losses (rsl-rl's
+    ``use_mixed_precision``). Weights, gradients and the Adam state stay float32; the
+    rollout's inference stays float32. Beyond the paper."""
 
 
 @dataclass
@@ -52,7 +57,9 @@ class TrainConfig:
     """Numbered checkpoints kept besides ``latest.pt``."""
     seed: int = 0
     num_threads: int = 2
-    """Physics threads and torch threads (they never run at the same time)."""
+    """Physics threads (MuJoCo's Batch), and torch threads unless ``torch_threads`` is set."""
+    torch_threads: int | None = None
+    """Torch intra-op threads for inference and the PPO update; None: ``num_threads``."""
     ppo: PPOConfig = field(default_factory=PPOConfig)
     env_overrides: dict[str, Any] = field(default_factory=dict)
     """Dotted EnvConfig overrides applied after the variant's."""
@@ -89,11 +96,13 @@ networks' shapes or the run's identity."""
 
 def amend_train_config(cfg: TrainConfig, changes: dict[str, Any]) -> TrainConfig:
     """``cfg`` with ``changes`` applied: ``ppo.<field>`` keys set PPO hyperparameters,
-    ``train.<field>`` keys the :data:`AMENDABLE` TrainConfig fields, every other key is a
-    dotted EnvConfig override (checked when the env config is built).
+    ``train.<field>`` keys the :data:`AMENDABLE` TrainConfig fields (both checked against
+    the field's declared type), every other key is a dotted EnvConfig override (checked
+    when the env config is built).
 
     Raises:
         KeyError: naming an unknown PPO field or a TrainConfig field that cannot change.
+        ValueError: ``config key 'ppo.<field>' must be ..., got ...``.
     """
     ppo = asdict(cfg.ppo)
     env = dict(cfg.env_overrides)
@@ -104,12 +113,12 @@ def amend_train_config(cfg: TrainConfig, changes: dict[str, Any]) -> TrainConfig
             if name not in AMENDABLE:
                 raise KeyError(f"'{name}' cannot change in a resumed run; amendable: "
                                f"{list(AMENDABLE)}")
-            train[name] = value
+            train[name] = checked_value(key, value, get_type_hints(TrainConfig)[name])
         elif key.startswith("ppo."):
             name = key.removeprefix("ppo.")
             if name not in ppo:
                 raise KeyError(f"unknown PPO setting '{name}'; known: {sorted(ppo)}")
-            ppo[name] = value
+            ppo[name] = checked_value(key, value, get_type_hints(PPOConfig)[name])
         else:
             env[key] = value
     return replace(cfg, ppo=PPOConfig(**ppo), env_overrides=env, **train)
@@ -119,6 +128,7 @@ def runner_dict(cfg: TrainConfig) -> dict[str, Any]:
     """The rsl-rl-lib 5 ``OnPolicyRunner`` configuration for ``cfg``."""
     ppo = asdict(cfg.ppo)
     symmetry = ppo.pop("symmetry")
+    ppo["use_mixed_precision"] = ppo.pop("mixed_precision")
     algorithm: dict[str, Any] = {"class_name": "PPO", **ppo}
     if symmetry:
         algorithm["symmetry_cfg"] = {

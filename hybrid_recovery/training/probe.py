@@ -3,7 +3,6 @@ from chosen start states (the research scripts build on these)."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -12,7 +11,7 @@ from tensordict import TensorDict
 
 from hybrid_recovery.envs import RecoveryEnv, apply_overrides
 from hybrid_recovery.sim.initial_states import POSES
-from hybrid_recovery.training.checkpoint import LATEST, load_checkpoint
+from hybrid_recovery.training.checkpoint import LATEST, load_checkpoint, read_run_config
 from hybrid_recovery.training.config import train_config_from_dict
 from hybrid_recovery.training.export import actor_from_checkpoint
 from hybrid_recovery.training.runner import make_env_config
@@ -42,7 +41,7 @@ def training_env(run: Path, num_envs: int, seed: int,
         overrides: dotted EnvConfig keys set before the env is built.
     """
     data = load_checkpoint(run / LATEST)
-    cfg = train_config_from_dict(json.loads((run / "config.json").read_text())["train_config"])
+    cfg = train_config_from_dict(read_run_config(run)["train_config"])
     cfg.num_envs, cfg.num_threads, cfg.seed = num_envs, 1, seed
     env_cfg = make_env_config(cfg)
     env_cfg.curriculum.stage1_poses = tuple(POSES)

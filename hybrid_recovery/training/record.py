@@ -7,7 +7,6 @@ checkpoint's metadata and the TensorBoard scalars that rsl-rl and the environmen
 
 from __future__ import annotations
 
-import json
 import os
 import platform
 from collections.abc import Mapping, Sequence
@@ -214,6 +213,8 @@ def plot_curves(runs: str | Path | Mapping[str, Lineage], out: str | Path,
         ax.set_title(label, fontsize=9)
         ax.set_xlabel("env steps [millions]", fontsize=8)
         ax.grid(alpha=0.3)
+    from hybrid_recovery.training.checkpoint import read_run_config
+
     sizes = []
     for index, (name, run) in enumerate(runs.items()):
         lineage = [run] if isinstance(run, str | Path) else list(run)
@@ -223,7 +224,7 @@ def plot_curves(runs: str | Path | Mapping[str, Lineage], out: str | Path,
         scalars = {tag: (steps[(steps >= lo) & (steps <= hi)],
                          values[(steps >= lo) & (steps <= hi)])
                    for tag, (steps, values) in scalars.items()}
-        meta = json.loads((Path(run_dir) / "config.json").read_text())
+        meta = read_run_config(run_dir)  # a damaged file is named
         config = meta["train_config"]
         per_iteration = config["num_envs"] * config["num_steps_per_env"]
         sizes.append(f"{name}: {config['num_envs']} envs")

@@ -115,7 +115,7 @@ def policy_meta(cfg: TrainConfig, env_cfg: EnvConfig, critic_dim: int) -> dict:
             "train_config": dataclasses.asdict(cfg), "env_config": dataclasses.asdict(env_cfg)}
 
 
-_KEPT_ON_RESUME = ("iterations", "num_threads")
+_KEPT_ON_RESUME = ("iterations", "num_threads", "torch_threads")
 """TrainConfig fields a resume takes from the options given now (when given)."""
 _OPTION = {"env_overrides": "--set", "ppo": "--symmetry"}
 """The ``train`` option of a TrainConfig field, where it is not ``--<field-name>``."""
@@ -124,7 +124,7 @@ _OPTION = {"env_overrides": "--set", "ppo": "--symmetry"}
 def _resumed_config(run_dir: Path, cfg: TrainConfig,
                     given: Collection[str] | None = None) -> TrainConfig:
     """The run's own saved TrainConfig (a resume continues the same run), taking from
-    ``cfg`` only ``num_threads`` and, where given, ``iterations`` (else the run's own
+    ``cfg`` only the thread counts and, where given, ``iterations`` (else the run's own
     target); the other ``given`` fields that differ from the run's are named as ignored.
 
     Args:
@@ -135,7 +135,7 @@ def _resumed_config(run_dir: Path, cfg: TrainConfig,
         return cfg
     saved = train_config_from_dict(read_run_config(run_dir)["train_config"])
     given = {f.name for f in dataclasses.fields(TrainConfig)} if given is None else set(given)
-    saved.num_threads = cfg.num_threads
+    saved.num_threads, saved.torch_threads = cfg.num_threads, cfg.torch_threads
     if "iterations" in given:
         saved.iterations = cfg.iterations
     ignored = sorted(_OPTION.get(name, "--" + name.replace("_", "-"))
@@ -213,7 +213,7 @@ def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
             print(f"[hybrid-recovery] amending the run's settings: {amend}", flush=True)
     env_cfg = make_env_config(cfg)  # every setting checked before a file is written
     torch.manual_seed(cfg.seed)
-    torch.set_num_threads(cfg.num_threads)
+    torch.set_num_threads(cfg.torch_threads or cfg.num_threads)
     env = RecoveryEnv(env_cfg)
     if force and not resume:
         for old in existing:
