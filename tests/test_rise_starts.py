@@ -89,8 +89,9 @@ def test_the_level_advances_and_retreats_on_the_stand_up_rate_of_its_own_starts(
     at = np.zeros
     assert rises.record("sitting", np.array([False] * 5), at(5, int)) == 0  # not below 0
     assert rises.record("sitting", np.array([True] * 3), at(3, int)) == 0
+    assert rises.rate("sitting") == 0.6  # the window holds the last 5: F F T T T
     assert rises.record("sitting", np.array([True]), at(1, int)) == 1  # 4 of 5 = 0.8
-    assert rises.level["sitting"] == 1
+    assert rises.level["sitting"] == 1 and rises.rate("sitting") == 0.0  # cleared
     # starts of the level left behind count for nothing; the window began afresh
     assert rises.record("sitting", np.array([True] * 9), at(9, int)) == 0
     assert rises.record("sitting", np.array([True, False, True, False]), np.ones(4, int)) == 0
@@ -232,6 +233,7 @@ def test_an_env_resets_from_recorded_states_and_steps_without_nan(sitting_file):
                                  ("torso_contact", "stuck_low", "nan", "timeout")})
     assert env.rises.state_dict()["outcomes"]["sitting"] == [True] * int(sit.sum())
     assert log["rise_level/sitting"] == 2.0 and "bridge_blend/sitting" not in log
+    assert log["rise_rate/sitting"] == 1.0
 
 
 def test_the_rise_levels_are_checkpointed_and_resumed(tmp_path, sitting_file):

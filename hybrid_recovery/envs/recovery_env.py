@@ -423,6 +423,7 @@ class RecoveryEnv(VecEnv):
             log[f"bridge_blend/{target}"] = float(self.bridge.blend(target))
         for pose in self.rises.poses:
             log[f"rise_level/{pose}"] = float(self.rises.level[pose])
+            log[f"rise_rate/{pose}"] = self.rises.rate(pose)
         log["episode/final_com_height"] = torch.from_numpy(self._state["height"][ids])
         log["curriculum/assist_fraction"] = float(self.assist.fraction)
         log["curriculum/stage"] = float(self.curriculum.stage)

@@ -207,6 +207,11 @@ class RiseStarts:
         pick = rows[rng.integers(len(rows), size=count)]
         return moves.qpos[pick].copy(), moves.qvel[pick].copy()
 
+    def rate(self, pose: str) -> float:
+        """Stand-up rate of the episodes from ``pose``'s current level counted so far
+        (since its last change), ∈ [0, 1]; 0 when none."""
+        return self._outcomes[pose].rate
+
     def record(self, pose: str, stood_up: np.ndarray, levels: np.ndarray) -> int:
         """Adds the outcomes of ``pose``'s episodes started at the current level (their
         start ``levels`` (n,) int, ``stood_up`` (n,) bool); returns the level's change:
