@@ -59,6 +59,13 @@ def test_contact_and_model_are_checked_first(tmp_path, capsys):
     assert not out.exists()
 
 
+def test_report_names_a_missing_results_file(tmp_path, capsys):
+    missing = tmp_path / "results.jsonl"
+    err = _error(capsys, ["report", str(missing), "--out", str(tmp_path / "report")])
+    assert err == f"error: results file not found: {missing}\n"
+    assert not (tmp_path / "report").exists()
+
+
 @pytest.mark.parametrize(("option", "value", "expected"), [
     ("--trials", "-5", "an integer >= 1"),
     ("--trials", "2.5", "an integer >= 1"),
@@ -82,6 +89,16 @@ def test_debug_adds_the_traceback(capsys):
                         "or hybrid[:PATH]\n")
     assert main(["eval", "--debug", "--controller", "bogus"]) == 2  # after the subcommand too
     assert capsys.readouterr().err.startswith("Traceback")
+
+
+def test_an_unexpected_exception_is_named_as_a_bug(capsys):
+    def buggy() -> int:
+        return None + 1  # type: ignore[operator]
+
+    assert report_errors(buggy, debug=False) == 2
+    assert capsys.readouterr().err == (
+        "error: TypeError: unsupported operand type(s) for +: 'NoneType' and 'int' (a bug: "
+        "run with --debug for the traceback and report it)\n")
 
 
 def test_interrupt_is_one_line_and_exit_130(capsys):

@@ -31,3 +31,22 @@ def test_the_step_feeds_the_shared_observation_and_clips_before_the_targets():
     clamped = policy_step(policy, gyro, quat, q, dq, last, 0.3, bounds).q_ref
     np.testing.assert_allclose(clamped, np.clip(step.q_ref, *bounds))
     assert np.isclose(np.abs(clamped - DEFAULT_JOINT_POS).max(), 0.1)
+
+
+def test_the_step_is_written_once():
+    """Outside their own modules, the observation builder and the action mapping are called
+    only by :func:`policy_step` and by the batched environment (which gets its actions from
+    the training runner, not from a policy it runs)."""
+    import ast
+    from pathlib import Path
+
+    package = Path(__file__).resolve().parents[1] / "hybrid_recovery"
+    own = {"observation/actor.py", "robot/action.py"}
+    callers = set()
+    for path in package.rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Call):
+                name = getattr(node.func, "id", getattr(node.func, "attr", None))
+                if name in ("actor_observation", "joint_targets", "clip_action"):
+                    callers.add(path.relative_to(package).as_posix())
+    assert callers - own == {"policy/step.py", "envs/recovery_env.py"}

@@ -16,6 +16,11 @@ EXIT_INTERRUPTED = 130
 """Exit status after Ctrl-C (128 + SIGINT)."""
 
 
+_EXPECTED = (ValueError, KeyError, OSError, RuntimeError)
+"""Errors whose message is the whole story (refused inputs, missing or damaged files,
+faults); any other exception is a bug and is named with its type and a hint."""
+
+
 class UsageError(ValueError):
     """A command-line input that is refused before any work is done; the message says why."""
 
@@ -57,5 +62,9 @@ def report_errors(run: Callable[[], int], debug: bool) -> int:
     except Exception as err:  # noqa: BLE001 - the top of the program: one line, no traceback
         if debug:
             traceback.print_exc()
-        print(f"error: {error_message(err)}", file=sys.stderr)
+        if isinstance(err, _EXPECTED):
+            print(f"error: {error_message(err)}", file=sys.stderr)
+        else:
+            print(f"error: {type(err).__name__}: {error_message(err)} (a bug: run with --debug "
+                  "for the traceback and report it)", file=sys.stderr)
         return EXIT_ERROR

@@ -82,7 +82,13 @@ def check_same_run(results: Path, meta: dict) -> None:
 
 
 def load_results(results: str | Path) -> list[dict]:
-    """All complete result rows of a JSON-lines results file."""
+    """All complete result rows of a JSON-lines results file.
+
+    Raises:
+        FileNotFoundError: ``results file not found: <path>``.
+    """
+    if not Path(results).is_file():
+        raise FileNotFoundError(f"results file not found: {results}")
     rows = []
     for line in Path(results).read_text().splitlines():
         try:
