@@ -61,7 +61,7 @@ def test_standing_forces_carry_the_weight_and_cop_is_under_the_com(robot):
     mu = FeasibilityConfig().friction
     assert (forces[:, 2] >= -1e-9).all()
     assert (np.abs(forces[:, :2]) <= mu * forces[:, 2:3] + 1e-6).all()
-    assert check.leftover_wrench.tolist() == [0.0] * 6
+    assert np.abs(check.leftover_wrench).max() < 1e-6
 
 
 @pytest.mark.parametrize("edge", ["heel", "toes"])

@@ -8,12 +8,16 @@ forces f_i (world axes, one per active point) in linearised friction pyramids
 
 and the joint torques of static equilibrium, τ = g_j(q) − Σ_i J_i,jᵀ f_i (g_j the joint
 rows of the generalised gravity, J_i the point Jacobians), use the least worst fraction of
-the effort limits, ρ = max_j |τ_j| / τ_max,j. Two proxsuite QPs (forces in units of m g):
+the effort limits, ρ = max_j |τ_j| / τ_max,j. A proxsuite QP, then a linear program
+(HiGHS; proxsuite stalls on this LP for some contact sets), forces in units of m g:
 
-1. support: min ‖s‖² + ε‖f‖² s.t. cones, [Σ f; Σ (p − c) × f] + s = [m g ẑ; 0]. A slack
+1. support: min W‖s‖² + ε‖f‖² s.t. cones, [Σ f; Σ (p − c) × f] + s = [m g ẑ; 0]. A slack
    s above tolerance means no contact forces hold the base: the state is reported
    unsupported with its leftover wrench s (force [N], moment about the CoM [N·m]).
-2. margin: min ρ + ε(‖f‖² + ρ²) s.t. cones, base balance, −ρ τ_max ≤ τ ≤ ρ τ_max.
+2. margin: min ρ s.t. cones, base balance less the leftover s of 1. (feasible by
+   construction: the forces of 1. satisfy it), −ρ τ_max ≤ τ ≤ ρ τ_max. Should it fail,
+   the forces of 1. are kept (``optimal`` False): their ρ is an upper bound of the
+   optimum.
 
 The state is feasible when it is supported and ρ ≤ effort_scale. Joints whose torque
 exceeds effort_scale · τ_max at the optimum are reported by name with the excess [N·m].
@@ -30,6 +34,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 import proxsuite
+from scipy.optimize import linprog
 
 from hybrid_recovery.dynamics.conventions import qpos_to_pin
 from hybrid_recovery.dynamics.robot_model import GRAVITY, RobotModel
@@ -41,7 +46,8 @@ from hybrid_recovery.getup.contacts import (
 )
 from hybrid_recovery.robot import constants
 
-_REG = 1e-7
+_REG = 1e-5
+_SLACK_WEIGHT = 1e6
 _SOLVED = proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED
 
 
@@ -87,6 +93,8 @@ class StaticCheck:
             CoM [N·m]), shape (6,); zero when supported.
         over_limit: Joint name → |τ_j| − effort_scale · τ_max,j [N·m], for joints over it.
         reason: Empty when feasible, else why not.
+        optimal: ρ is the optimum (False: the margin QP did not converge and ρ is that of
+            the support QP's forces, an upper bound).
     """
 
     feasible: bool
@@ -98,6 +106,7 @@ class StaticCheck:
     leftover_wrench: np.ndarray
     over_limit: dict[str, float] = field(default_factory=dict)
     reason: str = ""
+    optimal: bool = True
 
     def load_share(self) -> dict[str, float]:
         """Each contact's share of the total vertical force, summing to 1."""
@@ -154,13 +163,9 @@ def _cone_rows(n: int, mu: float) -> np.ndarray:
 
 def _solve(h, g, a, b, c, lo, hi) -> np.ndarray | None:
     qp = proxsuite.proxqp.dense.QP(h.shape[0], a.shape[0], c.shape[0])
-    qp.settings.eps_abs = 1e-10
+    qp.settings.eps_abs = 1e-9
     qp.settings.eps_rel = 0.0
     qp.settings.max_iter = 10_000
-    # both problems are feasible by construction (slack, free ρ): no early infeasibility
-    # verdict on an ill-conditioned contact set
-    qp.settings.eps_primal_inf = 1e-14
-    qp.settings.eps_dual_inf = 1e-14
     qp.settings.verbose = False
     qp.init(h, g, a, b, c, lo, hi)
     qp.solve()
@@ -211,7 +216,7 @@ def static_feasibility(robot: RobotModel, qpos: np.ndarray, contacts: tuple[str,
 
     # 1. support
     nx = 3 * n + 6
-    h = np.diag(np.r_[np.full(3 * n, _REG), np.ones(6)])
+    h = np.diag(np.r_[np.full(3 * n, _REG), np.full(6, _SLACK_WEIGHT)])
     x = _solve(h, np.zeros(nx), np.hstack([base, np.eye(6)]), target,
                np.hstack([cones, np.zeros((cones.shape[0], 6))]), np.zeros(len(big)), big)
     if x is None:
@@ -226,23 +231,23 @@ def static_feasibility(robot: RobotModel, qpos: np.ndarray, contacts: tuple[str,
                        f"{np.linalg.norm(leftover[:3]):.1f} N and "
                        f"{np.linalg.norm(leftover[3:]):.1f} N·m unbalanced")
 
-    # 2. worst torque-limit ratio
-    nx = 3 * n + 1
-    h = np.diag(np.r_[np.full(3 * n, _REG), _REG])
-    grad = np.r_[np.zeros(3 * n), 1.0]
+    # 2. worst torque-limit ratio (a linear program: x = [φ, ρ])
     scaled = jt / limits[:, None]
     torque_rows = np.vstack([np.hstack([-scaled, -np.ones((27, 1))]),
                              np.hstack([scaled, -np.ones((27, 1))])])
-    torque_hi = np.r_[-gravity / limits, gravity / limits]
-    c = np.vstack([np.hstack([cones, np.zeros((cones.shape[0], 1))]), torque_rows])
-    lo = np.r_[np.zeros(cones.shape[0]), np.full(54, -1e20)]
-    hi = np.r_[big, torque_hi]
-    x = _solve(h, grad, np.hstack([base, np.zeros((6, 1))]), target, c, lo, hi)
-    if x is None:
-        return _failed(points, owners, names, "torque QP did not converge")
-    phi = x[:3 * n]
+    a_ub = np.vstack([np.hstack([-cones, np.zeros((cones.shape[0], 1))]), torque_rows])
+    b_ub = np.r_[np.zeros(cones.shape[0]), -gravity / limits, gravity / limits]
+    lp = linprog(np.r_[np.zeros(3 * n), 1.0], A_ub=a_ub, b_ub=b_ub,
+                 A_eq=np.hstack([base, np.zeros((6, 1))]), b_eq=target - slack,
+                 bounds=[(None, None)] * (3 * n + 1), method="highs")
+    optimal = lp.status == 0 and np.isfinite(lp.x).all()
+    if optimal:
+        phi = lp.x[:3 * n]
     torques = gravity - jt @ phi
-    return _result(True, True, torques, phi * weight, points, owners, names, np.zeros(6), cfg, "")
+    check = _result(True, True, torques, phi * weight, points, owners, names, slack * weight,
+                    cfg, "")
+    check.optimal = optimal
+    return check
 
 
 def _result(feasible: bool, supported: bool, torques: np.ndarray, forces: np.ndarray,
