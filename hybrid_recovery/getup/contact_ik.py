@@ -20,7 +20,6 @@ import mujoco
 import numpy as np
 import placo
 
-from hybrid_recovery.deploy.limits import SafetyLimits
 from hybrid_recovery.getup.contacts import FLOOR_CONTACTS, contact_points_world
 from hybrid_recovery.getup.keyframes import (
     HANDS_KNEES,
@@ -31,6 +30,7 @@ from hybrid_recovery.getup.keyframes import (
     _symmetric,
 )
 from hybrid_recovery.robot import constants
+from hybrid_recovery.robot.limits import SafetyLimits
 from hybrid_recovery.robot.urdf import urdf_from_mjmodel
 
 SITTING_KNEES_BENT = _symmetric((0.0, -2.1, 0.0, 2.0, 0.45, 0.03), 0.0,
