@@ -1,6 +1,6 @@
 """Layers import downward only: every module's imports, parsed, against the layer order.
 
-robot → dynamics → observation → sim → policy → control / envs → training →
+robot → dynamics → observation → sim → policy → control / envs → training / getup →
 evaluation / deploy → bench / demo → cli. A package may import its own modules and any
 package of a lower layer; packages of one layer do not import each other. Imports inside
 functions count too.
@@ -22,7 +22,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("sim",),
     ("policy",),
     ("control", "envs"),
-    ("training",),
+    ("training", "getup"),
     ("evaluation", "deploy"),
     ("bench", "demo"),
     ("cli",),

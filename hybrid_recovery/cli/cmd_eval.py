@@ -42,9 +42,12 @@ def _run(args: argparse.Namespace, controller: str, out: Path) -> list[dict]:
     for name in ("forces", "directions", "heights"):  # recorded only when restricted
         if getattr(args, name, None) is not None:
             header[name] = list(getattr(args, name))
+    if args.stop_on_success:
+        header["stop_on_success"] = True
     return run_protocol(_scenarios(args), controller, out / "results.jsonl",
                         model_path=args.model, contact=args.contact, workers=args.workers,
-                        header=header, rotor_inertia=args.rotor_inertia)
+                        header=header, rotor_inertia=args.rotor_inertia,
+                        stop_on_success=args.stop_on_success)
 
 
 def _check(args: argparse.Namespace, controllers: list[str]) -> None:
@@ -105,6 +108,9 @@ def _common(p: argparse.ArgumentParser) -> None:
                    help="give the joints the project's rotor inertia (armature), for a "
                         "model file without it such as the manufacturer's")
     p.add_argument("--workers", type=integer(1), default=2)
+    p.add_argument("--stop-on-success", action="store_true",
+                   help="end each trial once it has succeeded (same success and recovery "
+                        "time, shorter trials; end-of-trial figures then describe that time)")
 
 
 def _configure_eval(p: argparse.ArgumentParser) -> None:

@@ -9,6 +9,8 @@ from hybrid_recovery.cli.validate import check_model, finite, non_negative, posi
 
 
 def _play(args: argparse.Namespace) -> int:
+    if args.controller is not None:
+        return _play_controller(args)
     from hybrid_recovery.evaluation.play import onnx_policy, play
     from hybrid_recovery.policy import resolve_policy
     from hybrid_recovery.sim.render import renderer_backend
@@ -24,12 +26,33 @@ def _play(args: argparse.Namespace) -> int:
     return 0
 
 
+def _play_controller(args: argparse.Namespace) -> int:
+    """An evaluation trial of ``--controller`` rendered (the runner's physics and start)."""
+    import math
+
+    from hybrid_recovery.evaluation.controllers import make_controller
+    from hybrid_recovery.evaluation.scenario import Scenario
+    from hybrid_recovery.evaluation.video import render_trial
+
+    check_model(args.model)
+    scenario = Scenario(args.pose, force=args.push, direction=math.radians(args.push_angle),
+                        push_time=args.push_time, push_duration=args.push_duration,
+                        duration=args.seconds, seed=args.seed)
+    path = render_trial(make_controller(args.controller), scenario, args.out, fps=args.fps,
+                        model_path=args.model)
+    print(f"wrote {path} ({args.controller}, {args.pose}, {args.seconds:g} s)")
+    return 0
+
+
 def _configure_play(p: argparse.ArgumentParser) -> None:
     from hybrid_recovery.sim.initial_states import POSES
 
     p.add_argument("--policy", default="shipped",
                    help="policy.onnx (or its export directory); 'shipped' for the shipped "
                         "policy; 'zero' for zero actions")
+    p.add_argument("--controller", default=None,
+                   help="render an evaluation trial of this controller instead (learned | "
+                        "qp | model | hybrid[:PATH] | onnx:PATH | zero)")
     p.add_argument("--pose", default="standing", choices=POSES, help="start pose")
     p.add_argument("--seconds", type=positive, default=5.0, help="episode length [s]")
     p.add_argument("--out", default="play.mp4", help="video file to write")
@@ -47,4 +70,4 @@ def _configure_play(p: argparse.ArgumentParser) -> None:
 
 
 _play.configure = _configure_play  # type: ignore[attr-defined]
-command("play", "Render one episode (zero actions or an ONNX policy) to an MP4.")(_play)
+command("play", "Render one episode (a policy, or any --controller) to an MP4.")(_play)

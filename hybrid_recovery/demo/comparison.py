@@ -2,8 +2,9 @@
 
 Scenarios: pushes while standing (100, 200, 300 N forward, 200 N sideways), a fall-inducing
 450 N push, and stand-ups from kneeling and supine. Controllers: ``zero`` (PD holding the
-default pose), the QP balance baseline when available, and the shipped learned policy
-(``models/policies/h1_2_recovery``) with the hybrid supervisor when it is shipped.
+default pose), the QP balance baseline and the model-based half (QP plus ground moves)
+when available, and the shipped learned policy (``models/policies/h1_2_recovery``) with
+the hybrid (ground moves, policy, QP) when it is shipped.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ DEMO_SCENARIOS: dict[str, Scenario] = {
     "push 200 N left": Scenario("standing", 200.0, np.pi / 2, duration=4.0, noise=0.25),
     "push 450 N (fall)": Scenario("standing", 450.0, 0.0, duration=10.0, noise=0.25),
     "stand up from kneeling": Scenario("kneeling", duration=10.0, noise=0.5),
-    "stand up from supine": Scenario("supine", duration=10.0, noise=0.5),
+    "stand up from supine": Scenario("supine", duration=20.0, noise=0.5),
 }
 
 
@@ -35,7 +36,7 @@ def available_controllers() -> tuple[list[str], list[str]]:
     specs, notes = ["zero"], []
     try:
         make_controller("qp")
-        specs.append("qp")
+        specs += ["qp", "model"]
     except ValueError as err:
         notes.append(f"QP baseline not available: {err}")
     if is_shipped():
@@ -85,7 +86,8 @@ def run_demo(out_dir: str | Path = "results/demo", video: bool = True) -> Path:
 def _label(spec: str) -> str:
     kind, _, _ = spec.partition(":")
     return {"learned": "learned policy", "onnx": "learned policy",
-            "hybrid": "hybrid (QP + policy)", "qp": "QP baseline",
+            "hybrid": "hybrid (moves + policy + QP)", "qp": "QP baseline",
+            "model": "model-based (QP + ground moves)",
             "zero": "PD hold (zero action)"}[kind]
 
 

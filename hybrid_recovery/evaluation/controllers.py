@@ -1,4 +1,4 @@
-"""Controllers under evaluation: ``zero``, ``onnx:PATH``, ``qp``, ``hybrid:PATH``.
+"""Controllers under evaluation: ``zero``, ``onnx:PATH``, ``qp``, ``model``, ``hybrid:PATH``.
 
 A controller is called once per physics step with the MuJoCo model and data and returns
 the actuator controls (position targets [rad] for position actuators, or torques [N·m]
@@ -92,11 +92,13 @@ class OnnxPolicyController:
 
 
 def make_controller(spec: str):
-    """Builds a controller from ``zero``, ``learned``, ``onnx:PATH``, ``qp`` or
+    """Builds a controller from ``zero``, ``learned``, ``onnx:PATH``, ``qp``, ``model`` or
     ``hybrid[:PATH]``.
 
-    ``learned`` is the shipped policy (``onnx:shipped``); ``hybrid`` without a path
-    supervises the shipped policy.
+    ``learned`` is the shipped policy (``onnx:shipped``); ``qp`` the QP balance controller
+    alone; ``model`` the model-based half (the QP when up, ground moves when down);
+    ``hybrid`` ground moves to knee-chest, then the policy (the shipped one without a
+    path) under the capturability supervisor with the QP.
 
     Raises:
         ValueError: an unknown spec, a missing path, or ``learned`` with no shipped policy.
@@ -117,11 +119,19 @@ def make_controller(spec: str):
             raise ValueError(str(err)) from err
     if kind == "onnx":
         return OnnxPolicyController(arg)
-    if kind in ("qp", "hybrid"):
+    if kind == "model":
+        from hybrid_recovery.getup.controllers import ModelController
+
+        return ModelController()
+    if kind == "hybrid":
+        from hybrid_recovery.getup.controllers import GroundHybridController
+
+        return GroundHybridController(arg)
+    if kind == "qp":
         try:
             from hybrid_recovery.evaluation.model_controllers import eval_controller
         except ImportError as err:
             raise ValueError(f"controller '{kind}' is not available: {err}") from err
         return eval_controller(kind, arg or None)
-    raise ValueError(f"unknown controller '{spec}': use zero, learned, onnx:PATH, qp or "
-                     "hybrid[:PATH]")
+    raise ValueError(f"unknown controller '{spec}': use zero, learned, onnx:PATH, qp, model "
+                     "or hybrid[:PATH]")

@@ -27,16 +27,17 @@ class EvaluationInterrupted(KeyboardInterrupt):
 
 
 def _init_worker(controller: str, model_path: str | None, contact: str,
-                 ignore_sigint: bool = False, rotor_inertia: bool = False) -> None:
+                 ignore_sigint: bool = False, rotor_inertia: bool = False,
+                 stop_on_success: bool = False) -> None:
     if ignore_sigint:  # the parent alone handles Ctrl-C (one line, not one per worker)
         signal.signal(signal.SIGINT, signal.SIG_IGN)
     _WORKER.update(controller=make_controller(controller), model=model_path, contact=contact,
-                   rotor_inertia=rotor_inertia)
+                   rotor_inertia=rotor_inertia, stop=stop_on_success)
 
 
 def _work(scenario: Scenario) -> dict:
     return run_trial(_WORKER["controller"], scenario, _WORKER["model"], _WORKER["contact"],
-                     rotor_inertia=_WORKER["rotor_inertia"])
+                     rotor_inertia=_WORKER["rotor_inertia"], stop_on_success=_WORKER["stop"])
 
 
 def completed_keys(results: Path) -> set[str]:
@@ -123,8 +124,11 @@ def header_provenance(header: dict) -> dict | None:
 def run_protocol(scenarios: list[Scenario], controller: str, results: str | Path,
                  model_path: str | None = None, contact: str = "default", workers: int = 2,
                  header: dict | None = None, progress: bool = True,
-                 rotor_inertia: bool = False) -> list[dict]:
+                 rotor_inertia: bool = False, stop_on_success: bool = False) -> list[dict]:
     """Runs every scenario not yet in ``results`` and appends one JSON line per trial.
+
+    With ``stop_on_success`` each trial ends once it has succeeded (see
+    :func:`run_trial`).
 
     A killed run resumes where it stopped: finished trials are skipped by key. The first
     line of a new file is a header with the controller (and its policy's provenance), the
@@ -165,13 +169,14 @@ def run_protocol(scenarios: list[Scenario], controller: str, results: str | Path
         if results.read_bytes()[-1:] not in (b"", b"\n"):
             out.write("\n")  # end a line torn by a killed run
         if workers <= 1:
-            _init_worker(controller, model_path, contact, rotor_inertia=rotor_inertia)
+            _init_worker(controller, model_path, contact, rotor_inertia=rotor_inertia,
+                         stop_on_success=stop_on_success)
             rows: Iterator[dict] = map(_work, todo)
             pool = None
         else:
             pool = mp.get_context("fork").Pool(workers, _init_worker,
                                                (controller, model_path, contact, True,
-                                                rotor_inertia))
+                                                rotor_inertia, stop_on_success))
             rows = pool.imap_unordered(_work, todo)
         try:
             for row in rows:

@@ -11,6 +11,7 @@ import numpy as np
 
 from hybrid_recovery.dynamics.capturability import capture_point
 from hybrid_recovery.envs.config import DomainRandConfig
+from hybrid_recovery.envs.terminations import SUCCESS_TIME, upright
 from hybrid_recovery.evaluation.contact import apply_contact_preset
 from hybrid_recovery.evaluation.scenario import Scenario, check_pose
 from hybrid_recovery.evaluation.strategy import CONTACT_BODIES, label_strategy
@@ -81,12 +82,15 @@ def run_trial(controller, scenario: Scenario, model_path: str | Path | None = No
               contact: str = "default", record: bool = False,
               on_sample: Callable[[mujoco.MjModel, mujoco.MjData, np.ndarray], None]
               | None = None, rotor_inertia: bool = False,
-              start_qpos: np.ndarray | None = None) -> dict:
+              start_qpos: np.ndarray | None = None, stop_on_success: bool = False) -> dict:
     """Runs one trial and measures it.
 
     ``on_sample(model, data, push_force)`` is called at every recorded sample (50 Hz),
     e.g. to render frames. ``rotor_inertia`` gives a model file without armature the
     project's rotor inertia; ``start_qpos`` (nq,) replaces the scenario's start state.
+    With ``stop_on_success`` the trial ends as soon as the success criterion is met (the
+    standing condition held for 1 s after the push), which leaves ``success`` and
+    ``recovery_time`` unchanged and shortens the trial.
 
     Returns:
         A flat dict: the scenario, ``success`` (the paper's criterion, after the push for a
@@ -119,6 +123,9 @@ def run_trial(controller, scenario: Scenario, model_path: str | Path | None = No
     trace: dict[str, list] = {k: [] for k in ("t", "com", "com_vel", "ang_mom", "cp",
                                               "gravity_b", "contacts", "feet_xy", "hip")}
     peak_torque = 0.0
+    t_start = scenario.push_time + scenario.push_duration if scenario.force > 0 else 0.0
+    need = int(np.ceil(SUCCESS_TIME / (every * dt) - 1e-9))
+    streak = 0
     hip_adr = model.jnt_qposadr[[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, n)
                                  for n in ("left_hip_pitch_joint", "right_hip_pitch_joint")]]
     for k in range(steps):
@@ -138,6 +145,13 @@ def run_trial(controller, scenario: Scenario, model_path: str | Path | None = No
             _record(model, data, trace, groups, hip_adr, torso)
             if on_sample is not None:
                 on_sample(model, data, data.xfrc_applied[torso, :3].copy())
+            if stop_on_success:
+                now = upright(np.array([trace["com"][-1][2]]),
+                              np.array([trace["com_vel"][-1][2]]),
+                              trace["gravity_b"][-1][None])[0] and data.time >= t_start - 1e-9
+                streak = streak + 1 if now else 0
+                if streak >= need:
+                    break
         mujoco.mj_step(model, data)
         peak_torque = max(peak_torque, float(np.abs(data.actuator_force).max()))
         if not np.isfinite(data.qpos).all():

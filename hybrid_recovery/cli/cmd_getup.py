@@ -1,0 +1,66 @@
+"""``hybrid-recovery getup record`` and ``hybrid-recovery getup map``."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from hybrid_recovery.cli.registry import command
+
+
+def _getup(args: argparse.Namespace) -> int:
+    return int(args._getup(args) or 0)
+
+
+def _record(args: argparse.Namespace) -> int:
+    from hybrid_recovery.evaluation.getup_record import record_rises
+
+    out = record_rises(args.pose, args.episodes, args.out, duration=args.duration,
+                       seed=args.seed)
+    print(f"kept {out['kept']} of {out['attempted']} rises: {out['path']}")
+    return 0
+
+
+def _map(args: argparse.Namespace) -> int:
+    from hybrid_recovery.evaluation.handover_map import handover_map, map_table
+
+    rows = handover_map(tuple(args.states), trials=args.trials, noise=args.noise,
+                        duration=args.duration, seed=args.seed, policy=args.policy)
+    table = map_table(rows)
+    print(table)
+    if args.out:
+        out = Path(args.out)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(json.dumps(rows, indent=1) + "\n")
+        print(f"rows: {out}")
+    return 0
+
+
+def _configure(p: argparse.ArgumentParser) -> None:
+    from hybrid_recovery.evaluation.handover_map import HANDOVER_STATES
+    from hybrid_recovery.sim.initial_states import POSES
+
+    sub = p.add_subparsers(dest="getup_command", required=True)
+    rec = sub.add_parser("record", help="record successful hybrid rises (npz)")
+    rec.add_argument("--pose", required=True, choices=POSES, help="start pose")
+    rec.add_argument("--episodes", type=int, required=True, help="episodes to run")
+    rec.add_argument("--out", required=True, help=".npz file to write")
+    rec.add_argument("--duration", type=float, default=30.0, help="trial length [s]")
+    rec.add_argument("--seed", type=int, default=0, help="seed of the first episode")
+    rec.set_defaults(_getup=_record)
+    hmap = sub.add_parser("map", help="the policy's success from each hand-over state")
+    hmap.add_argument("--states", nargs="+", default=list(HANDOVER_STATES),
+                      choices=list(HANDOVER_STATES))
+    hmap.add_argument("--trials", type=int, default=20, help="trials per state")
+    hmap.add_argument("--noise", type=float, default=1.0,
+                      help="scale of the paper's initialisation noise")
+    hmap.add_argument("--duration", type=float, default=15.0, help="trial length [s]")
+    hmap.add_argument("--seed", type=int, default=0)
+    hmap.add_argument("--policy", default="shipped", help="policy.onnx or its directory")
+    hmap.add_argument("--out", default=None, help="JSON file for the rows")
+    hmap.set_defaults(_getup=_map)
+
+
+_getup.configure = _configure  # type: ignore[attr-defined]
+command("getup", "Getting up: record hybrid rises, map the policy's hand-over states.")(_getup)

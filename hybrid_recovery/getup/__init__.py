@@ -1,0 +1,7 @@
+"""Getting up from the ground: floor contacts, static feasibility, contact-state moves."""
+
+from hybrid_recovery.getup.contacts import FLOOR_CONTACTS, FloorContact
+from hybrid_recovery.getup.feasibility import FeasibilityConfig, StaticCheck, static_feasibility
+
+__all__ = ["FLOOR_CONTACTS", "FeasibilityConfig", "FloorContact", "StaticCheck",
+           "static_feasibility"]

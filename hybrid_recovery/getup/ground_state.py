@@ -1,0 +1,88 @@
+"""Which ground state the robot is in: upright, sitting, supine, prone, knee-chest, side.
+
+Read from the torso's axes in the world (x forward out of the chest, y to the left, z up
+the spine), the pelvis and CoM heights and the bodies touching the floor.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+
+from hybrid_recovery.robot import constants
+
+GROUND_STATES = ("upright", "sitting", "supine", "prone", "knee_chest", "side", "other")
+"""Every state :func:`classify` returns."""
+
+
+@dataclass(frozen=True)
+class GroundPose:
+    """What the classification reads.
+
+    Attributes:
+        chest_z: z component of the torso's forward axis (+1: chest up, −1: chest down).
+        left_z: z component of the torso's left axis (±1: lying on a side).
+        spine_z: z component of the torso's up axis (+1: torso upright).
+        pelvis_height: Pelvis origin height [m].
+        com_height: CoM height h_c [m].
+        touching: Names of the robot's bodies touching the floor.
+    """
+
+    chest_z: float
+    left_z: float
+    spine_z: float
+    pelvis_height: float
+    com_height: float
+    touching: frozenset[str]
+
+
+def touching_bodies(model: mujoco.MjModel, data: mujoco.MjData) -> frozenset[str]:
+    """Names of the robot's bodies in contact with the world body (the floor)."""
+    names = set()
+    for c in data.contact[:data.ncon]:
+        b0, b1 = model.geom_bodyid[c.geom[0]], model.geom_bodyid[c.geom[1]]
+        if b0 == 0 and b1 > 0:
+            names.add(model.body(b1).name)
+        elif b1 == 0 and b0 > 0:
+            names.add(model.body(b0).name)
+    return frozenset(names)
+
+
+def read_ground_pose(model: mujoco.MjModel, data: mujoco.MjData) -> GroundPose:
+    """The :class:`GroundPose` of a forwarded ``data``."""
+    torso = model.body(constants.TORSO_BODY).id
+    pelvis = model.body(constants.PELVIS_BODY).id
+    rot = data.xmat[torso].reshape(3, 3)
+    return GroundPose(float(rot[2, 0]), float(rot[2, 1]), float(rot[2, 2]),
+                      float(data.xpos[pelvis, 2]), float(data.subtree_com[pelvis, 2]),
+                      touching_bodies(model, data))
+
+
+def classify(pose: GroundPose) -> str:
+    """One of :data:`GROUND_STATES`.
+
+    * ``upright``: CoM above 0.6 m, spine within 60° of vertical;
+    * ``supine``: chest up (chest_z > 0.6); ``prone``: chest down (chest_z < −0.6) with
+      the pelvis below 0.3 m; ``knee_chest``: chest down with the pelvis above 0.3 m and
+      both knees on the floor;
+    * ``sitting``: spine within 60° of vertical, pelvis on the floor;
+    * ``side``: a torso side axis within 53° of vertical; ``other``: anything else
+      (kneeling, squatting, on all fours ...).
+    """
+    knees = {"left_knee_link", "right_knee_link"} <= pose.touching
+    if pose.com_height > 0.6 and pose.spine_z > 0.5:
+        return "upright"
+    if pose.chest_z > 0.6:
+        return "supine"
+    if pose.chest_z < -0.6:
+        if pose.pelvis_height < 0.3:
+            return "prone"
+        if knees:
+            return "knee_chest"
+        return "other"
+    if pose.spine_z > 0.5 and constants.PELVIS_BODY in pose.touching and not knees:
+        return "sitting"
+    if abs(pose.left_z) > 0.6:
+        return "side"
+    return "other"

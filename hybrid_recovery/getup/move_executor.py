@@ -1,0 +1,144 @@
+"""Executes ground moves under joint PD, checks where each ends, re-plans from there.
+
+Every physics step :class:`GroundMoves` returns τ = clip(K_P (q_ref − q) − K_D q̇, ±τ_max)
+with the deployment gains (``constants.KP``/``KD``), q_ref on the current phase of the
+current move, clamped to the joint ranges × ``range_factor``. When a move's last phase
+ends, the ground state is classified: if it is the move's end, the next move starts (or
+the goal is reached); if not, the robot re-plans from the state it is in, the roll
+alternating sides on a retry, until ``max_moves`` moves have been tried.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from hybrid_recovery.control.diagnostics import Event
+from hybrid_recovery.control.policy_controller import pd_torque
+from hybrid_recovery.getup.ground_state import GROUND_STATES, classify, read_ground_pose
+from hybrid_recovery.getup.keyframes import KEYFRAMES, mirror
+from hybrid_recovery.getup.moves import MOVES, NEXT_MOVE, Move
+from hybrid_recovery.robot import constants
+from hybrid_recovery.robot.limits import SafetyLimits
+
+MOVING, ARRIVED, STUCK = "moving", "arrived", "stuck"
+
+
+@dataclass(frozen=True)
+class MoveConfig:
+    """Settings of the ground moves.
+
+    Attributes:
+        goal: Ground state to reach (the hand-over state).
+        range_factor: Targets within the joint ranges scaled by this about their middle.
+        max_moves: Moves tried before giving up (``stuck``).
+        settle_time: The joints are held this long before the first classification, so
+            that a robot dropped onto the floor has landed [s].
+    """
+
+    goal: str = "knee_chest"
+    range_factor: float = 0.9
+    max_moves: int = 8
+    settle_time: float = 0.5
+
+    def __post_init__(self) -> None:
+        if self.goal not in GROUND_STATES:
+            raise ValueError(f"unknown goal state '{self.goal}': use one of {list(GROUND_STATES)}")
+        if not 0.0 < self.range_factor <= 1.0:
+            raise ValueError(f"range_factor must be in (0, 1], got {self.range_factor}")
+
+
+class GroundMoves:
+    """Moves from the current ground state to ``config.goal``.
+
+    Attributes:
+        status: ``"moving"``, ``"arrived"`` (in the goal state) or ``"stuck"`` (no move
+            from this state, or ``max_moves`` used).
+        state: The last classified ground state.
+        move: The move in progress (None when not moving).
+        phase: Index of the phase in progress.
+        events: Moves started, arrivals and failures, with their times.
+        mirrored: The move in progress runs mirrored (left ↔ right).
+    """
+
+    def __init__(self, config: MoveConfig | None = None) -> None:
+        self.config = config or MoveConfig()
+        self.events: list[Event] = []
+
+    def reset(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        """Classifies the start state and plans the first move."""
+        limits = SafetyLimits.from_model(model)
+        self._lo, self._hi = limits.q_ref_bounds(self.config.range_factor)
+        self._qadr = np.array([model.joint(n).qposadr[0] for n in constants.JOINT_NAMES])
+        self._dadr = np.array([model.joint(n).dofadr[0] for n in constants.JOINT_NAMES])
+        self.events = []
+        self.moves_tried = 0
+        self.move: Move | None = None
+        self.mirrored = False
+        self._attempts: dict[str, int] = {}
+        self.q_ref = np.clip(data.qpos[self._qadr], self._lo, self._hi)
+        self.state, self.status, self.phase = "", MOVING, 0
+        self._settle_until = float(data.time) + self.config.settle_time
+        if self.config.settle_time <= 0.0:
+            self._plan(model, data)
+
+    def _plan(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        t = float(data.time)
+        self.state = classify(read_ground_pose(model, data))
+        self.move = None
+        if self.state == self.config.goal:
+            self.status = ARRIVED
+            self.events.append(Event(t, "arrived", f"in {self.state}"))
+            return
+        name = NEXT_MOVE.get(self.state)
+        if name is None or self.moves_tried >= self.config.max_moves:
+            self.status = STUCK
+            why = (f"no move from {self.state}" if name is None
+                   else f"{self.moves_tried} moves tried")
+            self.events.append(Event(t, "stuck", f"in {self.state}: {why}"))
+            return
+        attempt = self._attempts.get(name, 0)
+        self._attempts[name] = attempt + 1
+        self.moves_tried += 1
+        self.move, self.mirrored, self.status = MOVES[name], attempt % 2 == 1, MOVING
+        self.events.append(Event(t, "move", f"{name} from {self.state}"
+                                 + (" (mirrored)" if self.mirrored else "")))
+        self._start_phase(0, data)
+
+    def _start_phase(self, index: int, data: mujoco.MjData) -> None:
+        assert self.move is not None
+        phase = self.move.phases[index]
+        target = KEYFRAMES[phase.keyframe]
+        self.phase, self._t0 = index, float(data.time)
+        self._from = data.qpos[self._qadr].copy()
+        self._to = np.clip(mirror(target) if self.mirrored else target, self._lo, self._hi)
+
+    def __call__(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+        """τ (27,) [N·m]: the PD law on the current targets."""
+        if self.status == MOVING and self.move is None and data.time >= self._settle_until - 1e-9:
+            self._plan(model, data)
+        if self.move is not None:
+            phase = self.move.phases[self.phase]
+            elapsed = float(data.time) - self._t0
+            if elapsed >= phase.duration + phase.hold - 1e-9:
+                if self.phase + 1 < len(self.move.phases):
+                    self._start_phase(self.phase + 1, data)
+                else:
+                    self._finish(model, data)
+            if self.move is not None:
+                phase = self.move.phases[self.phase]
+                s = float(np.clip((float(data.time) - self._t0) / phase.duration, 0.0, 1.0))
+                s = s * s * (3.0 - 2.0 * s)
+                self.q_ref = (1.0 - s) * self._from + s * self._to
+        return pd_torque(self.q_ref, data.qpos[self._qadr], data.qvel[self._dadr])
+
+    def _finish(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        assert self.move is not None
+        move = self.move
+        reached = classify(read_ground_pose(model, data))
+        if reached != move.end:
+            self.events.append(Event(float(data.time), "missed",
+                                     f"{move.name} ended in {reached}, not {move.end}"))
+        self._plan(model, data)

@@ -1,0 +1,106 @@
+"""Ground moves executed in MuJoCo: prone → knee-chest ends in its contact state."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from hybrid_recovery.control.torque_model import load_torque_model
+from hybrid_recovery.dynamics import RobotModel
+from hybrid_recovery.evaluation.scenario import Scenario
+from hybrid_recovery.evaluation.trial import start_state
+from hybrid_recovery.getup.feasibility import static_feasibility
+from hybrid_recovery.getup.ground_state import GroundPose, classify, read_ground_pose
+from hybrid_recovery.getup.keyframes import KEYFRAMES, mirror
+from hybrid_recovery.getup.move_executor import GroundMoves, MoveConfig
+from hybrid_recovery.robot import constants
+from hybrid_recovery.robot.limits import SafetyLimits
+from hybrid_recovery.sim.initial_states import seat_single
+
+KNEE_CHEST_CONTACTS = ("left_knee", "right_knee", "left_toes", "right_toes", "left_hand",
+                       "right_hand", "head")
+
+
+@pytest.fixture(scope="module")
+def model():
+    return load_torque_model()
+
+
+def _start(model, pose: str, seed: int) -> mujoco.MjData:
+    data = mujoco.MjData(model)
+    data.qpos[:] = start_state(Scenario(pose, seed=seed), None, "default")
+    seat_single(model, data)
+    mujoco.mj_forward(model, data)
+    return data
+
+
+def _run(model, data, moves: GroundMoves, until: float) -> tuple[float, float]:
+    """Runs until the moves stop or ``until`` [s]; returns the peak |τ| [N·m] and the
+    largest |q_ref − mid| / half-range of the targets sent."""
+    lo, hi = SafetyLimits.from_model(model).q_ref_bounds(1.0)
+    mid, half = (lo + hi) / 2, (hi - lo) / 2
+    peak, reach = 0.0, 0.0
+    while data.time < until and moves.status == "moving":
+        data.ctrl[:] = tau = moves(model, data)
+        peak = max(peak, float(np.max(np.abs(tau) / constants.EFFORT_LIMITS)))
+        reach = max(reach, float(np.max(np.abs(moves.q_ref - mid) / half)))
+        mujoco.mj_step(model, data)
+    return peak, reach
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_prone_to_knee_chest_ends_in_its_contact_state(model, seed):
+    data = _start(model, "prone", seed)
+    moves = GroundMoves()
+    moves.reset(model, data)
+    peak, reach = _run(model, data, moves, until=10.0)
+    assert moves.status == "arrived", [(e.kind, e.message) for e in moves.events]
+    assert [e.message for e in moves.events] == ["tuck from prone", "in knee_chest"]
+    pose = read_ground_pose(model, data)
+    assert classify(pose) == "knee_chest"
+    assert {"left_knee_link", "right_knee_link", "left_ankle_roll_link", "right_ankle_roll_link",
+            "left_wrist_yaw_link", "right_wrist_yaw_link", "torso_link"} <= pose.touching
+    assert "pelvis" not in pose.touching
+    # settled: the state holds still and is statically feasible on these contacts at 1×
+    mujoco.mj_subtreeVel(model, data)
+    assert np.linalg.norm(data.subtree_linvel[1]) < 0.05
+    check = static_feasibility(RobotModel(model), data.qpos.copy(), KNEE_CHEST_CONTACTS)
+    assert check.feasible, check.reason
+    assert peak <= 1.0 + 1e-12 and reach <= 0.9 + 1e-12
+
+
+def test_a_retried_roll_runs_mirrored(model):
+    moves = GroundMoves()
+    data = _start(model, "supine", 0)
+    moves.reset(model, data)
+    np.testing.assert_allclose(mirror(mirror(KEYFRAMES["roll_twist"])), KEYFRAMES["roll_twist"])
+    assert mirror(KEYFRAMES["roll_twist"])[12] == -KEYFRAMES["roll_twist"][12]
+    moves._attempts["roll"] = 1  # as after a roll that missed
+    data.time = 1.0
+    moves(model, data)
+    assert moves.move is not None and moves.move.name == "roll" and moves.mirrored
+
+
+@pytest.mark.parametrize("chest, left, spine, pelvis, com, touching, state", [
+    (0.0, 0.0, 1.0, 1.0, 0.95, {"left_ankle_roll_link"}, "upright"),
+    (0.95, 0.0, 0.2, 0.15, 0.2, {"torso_link"}, "supine"),
+    (-0.95, 0.0, 0.1, 0.15, 0.2, {"torso_link"}, "prone"),
+    (-0.9, 0.0, -0.4, 0.4, 0.3, {"left_knee_link", "right_knee_link"}, "knee_chest"),
+    (-0.9, 0.0, -0.4, 0.4, 0.3, {"left_knee_link"}, "other"),
+    (0.3, 0.0, 0.9, 0.15, 0.4, {"pelvis"}, "sitting"),
+    (0.0, 0.9, 0.1, 0.15, 0.2, {"torso_link"}, "side"),
+    (0.1, 0.0, 0.95, 0.6, 0.55, {"left_knee_link", "right_knee_link"}, "other"),
+])
+def test_ground_state_classification(chest, left, spine, pelvis, com, touching, state):
+    assert classify(GroundPose(chest, left, spine, pelvis, com, frozenset(touching))) == state
+
+
+def test_move_config_messages():
+    with pytest.raises(ValueError) as err:
+        MoveConfig(goal="flying")
+    assert str(err.value) == ("unknown goal state 'flying': use one of ['upright', 'sitting', "
+                              "'supine', 'prone', 'knee_chest', 'side', 'other']")
+    with pytest.raises(ValueError) as err:
+        MoveConfig(range_factor=1.2)
+    assert str(err.value) == "range_factor must be in (0, 1], got 1.2"
