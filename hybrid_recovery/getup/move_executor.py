@@ -46,6 +46,9 @@ class MoveConfig:
     def __post_init__(self) -> None:
         if self.goal not in GROUND_STATES:
             raise ValueError(f"unknown goal state '{self.goal}': use one of {list(GROUND_STATES)}")
+        reachable = sorted({m.end for m in MOVES.values()})
+        if self.goal not in reachable:
+            raise ValueError(f"no move ends in '{self.goal}': the moves reach {reachable}")
         if not 0.0 < self.range_factor <= 1.0:
             raise ValueError(f"range_factor must be in (0, 1], got {self.range_factor}")
 
