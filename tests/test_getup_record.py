@@ -25,7 +25,9 @@ def test_record_keeps_a_successful_rise_with_its_phases_and_contacts(tmp_path):
     assert (rec["episode"] == 0).all() and rec["seeds"].tolist() == [1]
     np.testing.assert_allclose(np.diff(rec["time"]), 0.02, atol=1e-9)
     phases = list(dict.fromkeys(rec["phase"].tolist()))
-    assert phases == ["settle", "tuck/knee_chest", "policy", "qp"]
+    # the QP may take over from the policy before the success criterion ends the trial
+    assert phases in (["settle", "tuck/knee_chest", "policy"],
+                      ["settle", "tuck/knee_chest", "policy", "qp"])
     bodies = rec["contact_bodies"].tolist()
     knee = bodies.index("left_knee_link")
     at_handover = rec["phase"].tolist().index("policy")

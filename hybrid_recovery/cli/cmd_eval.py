@@ -39,11 +39,11 @@ def _run(args: argparse.Namespace, controller: str, out: Path) -> list[dict]:
 
     header = {"protocol": args.protocol, "trials": args.trials, "seed": args.seed,
               "poses": list(args.poses) if args.poses else None, "duration": args.duration}
-    if args.stop_on_success:
-        header["stop_on_success"] = True
     for name in ("forces", "directions", "heights"):  # recorded only when restricted
         if getattr(args, name, None) is not None:
             header[name] = list(getattr(args, name))
+    if args.stop_on_success:
+        header["stop_on_success"] = True
     return run_protocol(_scenarios(args), controller, out / "results.jsonl",
                         model_path=args.model, contact=args.contact, workers=args.workers,
                         header=header, rotor_inertia=args.rotor_inertia,
@@ -115,8 +115,7 @@ def _common(p: argparse.ArgumentParser) -> None:
 
 def _configure_eval(p: argparse.ArgumentParser) -> None:
     p.add_argument("--controller", default="learned",
-                   help="learned (the shipped policy) | zero | onnx:PATH | qp | model | "
-                        "hybrid[:PATH]")
+                   help="learned (the shipped policy) | zero | onnx:PATH | qp | hybrid[:PATH]")
     p.add_argument("--out", default="results/eval")
     _common(p)
 

@@ -34,6 +34,7 @@ def _play_controller(args: argparse.Namespace) -> int:
     from hybrid_recovery.evaluation.scenario import Scenario
     from hybrid_recovery.evaluation.video import render_trial
 
+    check_model(args.model)
     scenario = Scenario(args.pose, force=args.push, direction=math.radians(args.push_angle),
                         push_time=args.push_time, push_duration=args.push_duration,
                         duration=args.seconds, seed=args.seed)
