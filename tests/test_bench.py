@@ -189,6 +189,11 @@ def test_bench_train_settings_are_checked():
         bench_train_config(8, 0, 1, {"ppo.epochs": 2})
     with pytest.raises(KeyError, match=r"unknown training setting 'threads'; known: "):
         bench_train_config(8, 0, 1, {"threads": 2})
+    with pytest.raises(ValueError, match=r"^config key 'train.torch_threads' must be >= 1, "
+                                         r"got 0$"):
+        bench_train_config(8, 0, 1, {"torch_threads": 0})
+    with pytest.raises(ValueError, match=r"^config key 'ppo.mixed_precision' must be "):
+        bench_train_config(8, 0, 1, {"ppo.mixed_precision": "yes"})
 
 
 def test_cli_bench_train_takes_train_settings(capsys):

@@ -9,7 +9,7 @@ import os
 import time
 from collections import defaultdict
 from dataclasses import fields, replace
-from typing import Any
+from typing import Any, get_type_hints
 
 from hybrid_recovery.bench.env import _timed
 from hybrid_recovery.bench.physics_replay import PhysicsReplay
@@ -24,18 +24,22 @@ def bench_train_config(n: int, seed: int, threads: int, overrides: dict[str, Any
 
     Raises:
         KeyError: naming an unknown setting.
+        ValueError: ``config key 'train.<field>' must be ..., got ...`` (or ``ppo.<field>``).
     """
+    from hybrid_recovery.envs.config_values import checked_value
     from hybrid_recovery.training.config import PPOConfig, TrainConfig
 
     top: dict[str, Any] = {}
     ppo: dict[str, Any] = {}
     for key, value in (overrides or {}).items():
         group, name = (ppo, key.removeprefix("ppo.")) if key.startswith("ppo.") else (top, key)
-        known = {f.name for f in fields(PPOConfig if group is ppo else TrainConfig)} - {"ppo"}
+        cls = PPOConfig if group is ppo else TrainConfig
+        known = {f.name for f in fields(cls)} - {"ppo"}
         if name not in known:
             raise KeyError(f"unknown training setting '{key}'; known: {sorted(known)} "
                            f"(PPO settings as ppo.<name>)")
-        group[name] = value
+        dotted = key if group is ppo else f"train.{key}"
+        group[name] = checked_value(dotted, value, get_type_hints(cls)[name])
     cfg = TrainConfig(num_envs=n, seed=seed, num_threads=threads)
     return replace(cfg, **top, ppo=replace(cfg.ppo, **ppo))
 

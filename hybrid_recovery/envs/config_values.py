@@ -66,6 +66,7 @@ RANGES: dict[str, tuple[float, bool, float]] = {
     "train.save_interval": (1, True, math.inf),
     "train.keep_checkpoints": (1, True, math.inf),
     "train.num_steps_per_env": (1, True, math.inf),
+    "train.torch_threads": (1, True, math.inf),
 }
 """Key → (lower bound, lower bound allowed, upper bound allowed) of every number in the
 value (each entry of a pair or a table); keys not listed take any number but NaN."""
