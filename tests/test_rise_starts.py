@@ -11,8 +11,16 @@ import torch
 
 from hybrid_recovery.envs import RecoveryEnv, default_config
 from hybrid_recovery.envs.config import BridgeConfig, RiseConfig
-from hybrid_recovery.envs.rise_starts import RiseStarts, move_progress, stretch_of, turned
+from hybrid_recovery.envs.rise_starts import (
+    RiseStarts,
+    load_rises,
+    move_progress,
+    stretch_of,
+    turned,
+)
+from hybrid_recovery.evaluation.getup_record import record_rises
 from hybrid_recovery.observation import projected_gravity
+from hybrid_recovery.policy import is_shipped
 from hybrid_recovery.sim.initial_states import POSES, settle_pool
 from hybrid_recovery.sim.scene import build_scene
 from hybrid_recovery.training.checkpoint import atomic_save, load_checkpoint
@@ -269,3 +277,18 @@ def test_the_recovery_rises_variant_names_the_recordings_it_needs(tmp_path, monk
     # the recipe is the shipped one plus the rises
     assert variant_overrides("recovery_rises") == {
         **variant_overrides("recovery"), "rises.files": ["rises/sitting.npz", "rises/supine.npz"]}
+
+
+@pytest.mark.skipif(not is_shipped(), reason="no shipped policy")
+def test_a_real_recording_splits_into_equal_stretches_of_its_move(tmp_path):
+    out = record_rises("supine", 1, tmp_path / "supine.npz", duration=20.0, seed=3)
+    assert out["kept"] == 1
+    rec = np.load(tmp_path / "supine.npz")
+    pose, moves = load_rises(tmp_path / "supine.npz", 8, NQ, NV)
+    phase = rec["phase"].tolist()
+    first = next(i for i, p in enumerate(phase) if p != "settle")
+    # the move: every sample from the end of the settle to the hand-over, in order
+    np.testing.assert_array_equal(moves.qpos, rec["qpos"][first:phase.index("policy")])
+    counts = np.bincount(moves.stretch, minlength=8)
+    assert pose == "supine" and counts.max() - counts.min() <= 1
+    assert (np.diff(moves.stretch) <= 0).all()  # from the ground pose (7) to the hand-over (0)
