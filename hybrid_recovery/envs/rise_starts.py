@@ -76,8 +76,10 @@ def move_progress(time: np.ndarray, episode: np.ndarray, phase: np.ndarray
             continue
         move = rows[first:end]
         t0 = time[move[0]]
-        t_h = time[rows[end]] if end < len(rows) else time[move[-1]] + (
-            time[move[-1]] - time[move[-2]] if len(move) > 1 else 1.0)
+        if end < len(rows):  # the hand-over's time
+            t_h = time[rows[end]]
+        else:  # none: one sample period after the move's last sample
+            t_h = time[move[-1]] + (time[move[-1]] - time[move[-2]] if len(move) > 1 else 1.0)
         on_move[move] = True
         u[move] = (time[move] - t0) / (t_h - t0)
     return on_move, u
