@@ -102,5 +102,9 @@ def test_move_config_messages():
     assert str(err.value) == ("unknown goal state 'flying': use one of ['upright', 'sitting', "
                               "'supine', 'prone', 'knee_chest', 'side', 'other']")
     with pytest.raises(ValueError) as err:
+        MoveConfig(goal="upright")  # no model-based rise: a plan to stand is refused
+    assert str(err.value) == ("no move ends in 'upright': the moves reach ['knee_chest', "
+                              "'prone', 'supine']")
+    with pytest.raises(ValueError) as err:
         MoveConfig(range_factor=1.2)
     assert str(err.value) == "range_factor must be in (0, 1], got 1.2"

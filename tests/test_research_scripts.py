@@ -115,6 +115,24 @@ def test_no_bridge_level_rises_holding_its_joints(run, monkeypatch):
         module.probe(run, 2, EPISODES, 3, "squatting", "sitting", torque_scale=0.5)
 
 
+def test_no_rise_level_rises_holding_its_joints(run, monkeypatch, tmp_path):
+    from hybrid_recovery.sim.initial_states import settle_pool
+    from hybrid_recovery.sim.scene import build_scene
+
+    model, _ = build_scene(None, 0.005)
+    qpos, _ = settle_pool(model, per_pose=6, rng=np.random.default_rng(0), nthread=1)["supine"]
+    phase = ["settle"] + ["roll/tuck"] * 4 + ["policy"]  # a 4-sample move in one episode
+    np.savez(tmp_path / "supine.npz", qpos=qpos, qvel=np.zeros((6, model.nv)),
+             time=np.arange(6) * 0.02, episode=np.zeros(6, int), phase=np.array(phase),
+             pose=np.array("supine"))
+    module = _script("probe_rise_levels")
+    monkeypatch.setattr(module, "first_episodes",
+                        lambda env, actor, first=module.first_episodes: first(env, Holder(env)))
+    out = module.probe(run, tmp_path / "supine.npz", 2, EPISODES, 3, seconds=3.0)
+    assert out["pose"] == "supine" and out["episodes"] == EPISODES
+    assert out["stood_up_by_level"] == {"0/2": 0.0, "1/2": 0.0, "2/2": 0.0}
+
+
 def test_assisted_pose_probe_pulls_at_each_fraction_and_never_anneals(run, monkeypatch):
     module = _script("probe_assisted_poses")
     pulls: dict[float, list[np.ndarray]] = {}

@@ -130,8 +130,9 @@ def test_policy_json_mismatch_is_refused(trained_run, tmp_path):
         load_policy_description(out / "policy.json")
 
 
-@pytest.mark.parametrize("variant", sorted(VARIANTS))
+@pytest.mark.parametrize("variant", sorted(set(VARIANTS) - {"recovery_rises"}))
 def test_variants_set_critic_width_and_rewards(variant):
+    """(``recovery_rises`` needs recordings: ``tests/test_rise_starts.py``.)"""
     env_cfg = make_env_config(TrainConfig(variant=variant, num_envs=2, num_threads=1))
     env = RecoveryEnv(env_cfg)
     obs = env.get_observations()

@@ -40,8 +40,10 @@ def _train(args: argparse.Namespace) -> int:
 
 def _configure_train(p: argparse.ArgumentParser) -> None:
     p.add_argument("--variant", default=None,
-                   help="recovery (the shipped policy's recipe) | full (the paper's, the "
-                        "default) | reduced | no_privileged | no_capture_point | no_curriculum")
+                   help="recovery (the shipped policy's recipe) | recovery_rises (it with "
+                        "starts along recorded rises, see training/README.md) | full (the "
+                        "paper's, the default) | reduced | no_privileged | no_capture_point | "
+                        "no_curriculum")
     p.add_argument("--num-envs", type=integer(1), default=None, help="default 1024")
     p.add_argument("--iterations", type=integer(1), default=None,
                    help="total PPO iterations of the run (default: the paper's 50,000; with "

@@ -245,6 +245,35 @@ class BridgeConfig:
 
 
 @dataclass
+class RiseConfig:
+    """Starts along recorded rises (beyond the paper; off by default), see
+    :mod:`hybrid_recovery.envs.rise_starts`.
+
+    Episodes of a pose that has recordings (``files``, written by ``hybrid-recovery getup
+    record``: states along successful hybrid rises, model-based ground moves then the
+    policy) start from recorded states (qpos, qvel) of the move, as a reverse curriculum:
+    the move from the ground pose to the hand-over is cut into ``levels`` K stretches of
+    equal time; level 0 starts from the stretch that ends at the hand-over, level K − 1
+    from the one that begins at the ground pose, level K from the pose's own settled
+    starts. A full window of ``window`` episodes from the current level with a stand-up
+    rate ≥ ``advance`` moves it one level toward the ground pose, below ``retreat`` one
+    back. The start-pose bridges of such a pose are not used. Why: a blend of two unrelated
+    poses is a state no rising robot passes through; a recorded rise is one it does.
+    """
+
+    files: tuple[str, ...] = ()
+    """Recordings (``.npz``), each of one start pose; empty = off (the paper)."""
+    levels: int = 8
+    """K: stretches of each recorded move."""
+    advance: float = 0.8
+    """Stand-up rate over ``window`` that moves the starts one stretch toward the ground."""
+    retreat: float = 0.3
+    """Stand-up rate over ``window`` below which the starts move one stretch back."""
+    window: int = 128
+    """Finished episodes from the current level per decision."""
+
+
+@dataclass
 class EnvConfig:
     """The recovery environment (paper §III-C–§III-G)."""
 
@@ -294,6 +323,7 @@ class EnvConfig:
     curriculum: CurriculumConfig = field(default_factory=CurriculumConfig)
     assist: AssistConfig = field(default_factory=AssistConfig)
     bridge: BridgeConfig = field(default_factory=BridgeConfig)
+    rises: RiseConfig = field(default_factory=RiseConfig)
 
 
 def default_config() -> EnvConfig:

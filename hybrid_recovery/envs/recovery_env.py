@@ -8,6 +8,7 @@ turned into balance quantities by :mod:`hybrid_recovery.dynamics`.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import mujoco
@@ -27,6 +28,7 @@ from hybrid_recovery.envs.domain_rand import Randomizer
 from hybrid_recovery.envs.pose_bridge import PoseBridge
 from hybrid_recovery.envs.pushes import Pushes
 from hybrid_recovery.envs.rewards import RewardState, compute_rewards
+from hybrid_recovery.envs.rise_starts import RiseStarts, turned
 from hybrid_recovery.envs.terminations import TERMINATIONS, StuckLow, success_step
 from hybrid_recovery.observation.actor import actor_observation, noise_halfwidths, projected_gravity
 from hybrid_recovery.robot import constants
@@ -71,6 +73,7 @@ class RecoveryEnv(VecEnv):
         self.model, self.layout = build_scene(cfg.model_path, cfg.physics_dt,
                                               delay_samples=int(delay[1]) + 2)
         n, m = cfg.num_envs, self.model
+        self.rises = RiseStarts(cfg.rises, m.nq, m.nv)  # its files checked before the work
         self.sims = mjbatch.Batch(m, n, cfg.num_threads, persistent=True)
         b = self.sims.bind
         self.qpos, self.qvel, self.ctrl = b("qpos"), b("qvel"), b("ctrl")
@@ -93,9 +96,11 @@ class RecoveryEnv(VecEnv):
         self.pushes = Pushes(cfg.pushes, n, self.dt)
         self.stuck = StuckLow(n, cfg.stuck_time, cfg.stuck_rise, self.dt)
         self.pool = settle_pool(m, per_pose=32, rng=self.rng, nthread=cfg.num_threads)
-        self.bridge = PoseBridge(cfg.bridge)
+        # a pose with recorded rises starts along them, not from its bridge's blends
+        self.bridge = PoseBridge(dataclasses.replace(cfg.bridge, pairs=tuple(
+            pair for pair in cfg.bridge.pairs if tuple(pair)[-1] not in self.rises.poses)))
         self.bridge_pool = settle_pool(m, per_pose=32, rng=self.rng, nthread=cfg.num_threads,
-                                       library=self.bridge.poses()) if cfg.bridge.levels else {}
+                                       library=self.bridge.poses()) if self.bridge.targets else {}
         """Settled blends of the start-pose bridges (:mod:`~.pose_bridge`), by level name."""
         self.noise = noise_halfwidths(cfg.noise.ang_vel, cfg.noise.gravity, cfg.noise.joint_pos,
                                       cfg.noise.joint_vel)
@@ -112,11 +117,12 @@ class RecoveryEnv(VecEnv):
         self.start_pose = np.zeros(n, dtype=int)
         """Index into ``POSES`` of each env's episode start."""
         self.start_level = np.full(n, -1)
-        """Bridge level of each episode's start (−1: not a blend), (N,) int."""
-        self._bridge_counted = np.zeros(n, dtype=bool)
+        """Bridge or rise level of each episode's start (−1: the pose's own settled
+        start), (N,) int."""
+        self._start_counted = np.zeros(n, dtype=bool)
         self._window_counted = np.zeros(n, dtype=bool)
-        """Episodes whose outcome the bridges / the curriculum and assistance windows have
-        counted (:meth:`_count_bridges`, :meth:`_count_windows`), (N,) bool."""
+        """Episodes whose outcome the bridges and rises / the curriculum and assistance
+        windows have counted (:meth:`_count_starts`, :meth:`_count_windows`), (N,) bool."""
         self._pose_names = np.asarray(POSES)
         if cfg.curriculum.advance_on not in ("stood_up", "success"):
             raise ValueError(f"curriculum.advance_on must be 'stood_up' or 'success', got "
@@ -191,7 +197,7 @@ class RecoveryEnv(VecEnv):
         self.succeeded |= self.upright_time >= 1.0
         self.up_time = success_step(self.up_time, s, self.dt, still=False)
         self.stood_up |= self.up_time >= 1.0
-        self._count_bridges(np.flatnonzero(self.stood_up & ~self._bridge_counted))
+        self._count_starts(np.flatnonzero(self.stood_up & ~self._start_counted))
         self._count_windows(np.flatnonzero(self._window_outcome() & ~self._window_counted))
         done = terminated | time_out
         extras = {"time_outs": torch.from_numpy(time_out), "log": {}}
@@ -331,10 +337,16 @@ class RecoveryEnv(VecEnv):
         n, dr, rng = len(ids), self.cfg.domain_rand, self.rng
         poses = self._sample_poses(n)
         qpos = np.empty((n, self.model.nq))
+        qvel = np.zeros((n, self.model.nv))
         levels = np.full(n, -1)
+        recorded = np.zeros(n, dtype=bool)
         for k, name in enumerate(POSES):
             rows = np.flatnonzero(poses == k)
             if not len(rows):
+                continue
+            if self.rises.active(name):
+                levels[rows], recorded[rows] = self.rises.level[name], True
+                qpos[rows], qvel[rows] = self.rises.draw(name, len(rows), rng)
                 continue
             if not self.bridge.active(name):
                 pool = self.pool[name][0]
@@ -343,8 +355,13 @@ class RecoveryEnv(VecEnv):
             levels[rows] = self.bridge.level[name]
             pool = self.bridge_pool[self.bridge.pool_name(name)][0]
             qpos[rows] = pool[rng.integers(len(pool), size=len(rows))]
-        qpos = perturb_start(qpos, rng, dr.init_base_pos, dr.init_base_rot, dr.init_joint_pos,
-                             self.qadr, self.model.jnt_range[1:1 + self.num_actions])
+        settled = ~recorded
+        qpos[settled] = perturb_start(qpos[settled], rng, dr.init_base_pos, dr.init_base_rot,
+                                      dr.init_joint_pos, self.qadr,
+                                      self.model.jnt_range[1:1 + self.num_actions])
+        # a recorded state is physically valid as it is: only turned to a random heading
+        qpos[recorded], qvel[recorded] = turned(qpos[recorded], qvel[recorded],
+                                                rng.uniform(-np.pi, np.pi, recorded.sum()))
         self.start_pose[ids], self.start_level[ids] = poses, levels
         self.randomizer.set_limits(ids, self.curriculum.torque_scale,
                                    self.curriculum.position_limit_factor)
@@ -354,8 +371,9 @@ class RecoveryEnv(VecEnv):
         qpos[:, self.qadr] = np.clip(qpos[:, self.qadr], lo, hi)
         self.sims.reset(ids, stage=mujoco.mjtStage.mjSTAGE_NONE)
         self.qpos[ids] = qpos
-        self.qvel[ids] = 0.0
-        seat_on_ground(self.model, self.sims, ids)
+        self.qvel[ids] = qvel
+        if settled.any():
+            seat_on_ground(self.model, self.sims, ids[settled])
         self.randomizer.randomize(ids, rng, self.curriculum.difficulty)
         delay = rng.integers(self._delay_steps[0], self._delay_steps[1] + 1, n)
         self.delay_steps[ids] = delay
@@ -378,7 +396,7 @@ class RecoveryEnv(VecEnv):
         self.succeeded[ids] = False
         self.up_time[ids] = 0.0
         self.stood_up[ids] = False
-        self._bridge_counted[ids] = False
+        self._start_counted[ids] = False
         self._window_counted[ids] = False
         for sums in self.episode_sums.values():
             sums[ids] = 0.0
@@ -399,10 +417,13 @@ class RecoveryEnv(VecEnv):
                     self.succeeded[mine].astype(np.float32))
                 log[f"pose_stood_up/{pose}"] = torch.from_numpy(
                     self.stood_up[mine].astype(np.float32))
-        self._count_bridges(ids)
+        self._count_starts(ids)
         self._count_windows(ids)
         for target in self.bridge.targets:
             log[f"bridge_blend/{target}"] = float(self.bridge.blend(target))
+        for pose in self.rises.poses:
+            log[f"rise_level/{pose}"] = float(self.rises.level[pose])
+            log[f"rise_rate/{pose}"] = self.rises.rate(pose)
         log["episode/final_com_height"] = torch.from_numpy(self._state["height"][ids])
         log["curriculum/assist_fraction"] = float(self.assist.fraction)
         log["curriculum/stage"] = float(self.curriculum.stage)
@@ -421,18 +442,19 @@ class RecoveryEnv(VecEnv):
         """The curriculum's and the assistance's outcome so far (``advance_on``), (N,) bool."""
         return self.stood_up if self.cfg.curriculum.advance_on == "stood_up" else self.succeeded
 
-    def _count_bridges(self, ids: np.ndarray) -> None:
+    def _count_starts(self, ids: np.ndarray) -> None:
         """Adds the stood-up outcomes of the not yet counted episodes ``ids`` to their
-        bridge's window, with their start levels."""
-        if not self.bridge.targets:  # no bridge: nothing to count, every step
+        bridge's or rise's window, with their start levels."""
+        if not (self.bridge.targets or self.rises.poses):  # nothing to count, every step
             return
-        ids = ids[~self._bridge_counted[ids]]
-        self._bridge_counted[ids] = True
+        ids = ids[~self._start_counted[ids]]
+        self._start_counted[ids] = True
         names = self._pose_names[self.start_pose[ids]]
-        for target in self.bridge.targets:
-            mine = ids[names == target]
+        for pose in self.bridge.targets + self.rises.poses:
+            mine = ids[names == pose]
             if len(mine):
-                self.bridge.record(target, self.stood_up[mine], self.start_level[mine])
+                started = self.bridge if pose in self.bridge.targets else self.rises
+                started.record(pose, self.stood_up[mine], self.start_level[mine])
 
     def _count_windows(self, ids: np.ndarray) -> None:
         """Adds the outcomes of the not yet counted episodes ``ids``:

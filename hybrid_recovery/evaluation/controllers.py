@@ -124,7 +124,7 @@ def make_controller(spec: str):
 
         return ModelController()
     if kind == "hybrid":
-        from hybrid_recovery.getup.controllers import GroundHybridController
+        from hybrid_recovery.evaluation.getup_controllers import GroundHybridController
 
         return GroundHybridController(arg)
     if kind == "qp":

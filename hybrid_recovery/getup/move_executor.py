@@ -46,6 +46,9 @@ class MoveConfig:
     def __post_init__(self) -> None:
         if self.goal not in GROUND_STATES:
             raise ValueError(f"unknown goal state '{self.goal}': use one of {list(GROUND_STATES)}")
+        reachable = sorted({m.end for m in MOVES.values()})
+        if self.goal not in reachable:
+            raise ValueError(f"no move ends in '{self.goal}': the moves reach {reachable}")
         if not 0.0 < self.range_factor <= 1.0:
             raise ValueError(f"range_factor must be in (0, 1], got {self.range_factor}")
 
@@ -115,8 +118,8 @@ class GroundMoves:
         self._from = data.qpos[self._qadr].copy()
         self._to = np.clip(mirror(target) if self.mirrored else target, self._lo, self._hi)
 
-    def __call__(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
-        """τ (27,) [N·m]: the PD law on the current targets."""
+    def targets(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+        """q_ref (27,) [rad] of the current phase (the servo targets on a PD-servo model)."""
         if self.status == MOVING and self.move is None and data.time >= self._settle_until - 1e-9:
             self._plan(model, data)
         if self.move is not None:
@@ -132,7 +135,12 @@ class GroundMoves:
                 s = float(np.clip((float(data.time) - self._t0) / phase.duration, 0.0, 1.0))
                 s = s * s * (3.0 - 2.0 * s)
                 self.q_ref = (1.0 - s) * self._from + s * self._to
-        return pd_torque(self.q_ref, data.qpos[self._qadr], data.qvel[self._dadr])
+        return self.q_ref
+
+    def __call__(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+        """τ (27,) [N·m]: the PD law on :meth:`targets` (on a torque-controlled model)."""
+        q_ref = self.targets(model, data)
+        return pd_torque(q_ref, data.qpos[self._qadr], data.qvel[self._dadr])
 
     def _finish(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         assert self.move is not None

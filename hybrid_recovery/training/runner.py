@@ -62,6 +62,7 @@ class RecoveryRunner(OnPolicyRunner):
                           "curriculum": self.env.curriculum.state_dict(),
                           "assist": self.env.assist.state_dict(),
                           "bridge": self.env.bridge.state_dict(),
+                          "rises": self.env.rises.state_dict(),
                           "env_steps": env_steps, "compute_time_s": self.compute_s,
                           "segments": self.segments}
         atomic_save(saved, path)
@@ -71,7 +72,8 @@ class RecoveryRunner(OnPolicyRunner):
             old.unlink(missing_ok=True)
 
     def load_run(self, path: Path) -> None:
-        """Resumes from a checkpoint: weights, optimiser, normalisers, curriculum, iteration."""
+        """Resumes from a checkpoint: weights, optimiser, normalisers, curriculum, bridge and
+        rise levels, iteration."""
         data = load_checkpoint(path)
         self.alg.load(data, None, True)
         self.current_learning_iteration = int(data["iter"]) + 1
@@ -80,6 +82,8 @@ class RecoveryRunner(OnPolicyRunner):
             self.env.assist.load_state_dict(data["infos"]["assist"])
         if "bridge" in data["infos"]:
             self.env.bridge.load_state_dict(data["infos"]["bridge"])
+        if "rises" in data["infos"]:
+            self.env.rises.load_state_dict(data["infos"]["rises"])
         self.compute_s = data["infos"].get("compute_time_s")
         self.segments = [*data["infos"].get("segments", []),
                          {"iteration": self.current_learning_iteration, "hardware": hardware()}]

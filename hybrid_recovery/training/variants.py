@@ -34,10 +34,17 @@ toward the hard poses, the flat-feet reward r_feet, a torso pull of 0.8 m g for 
 starts annealed by their stand-ups, and start-pose bridges from squatting to sitting and
 supine in 16 levels."""
 
+RISE_FILES = ("rises/sitting.npz", "rises/supine.npz")
+"""Recorded hybrid rises of ``recovery_rises``, relative to the working directory; write
+them with ``hybrid-recovery getup record --pose sitting --episodes N --out
+rises/sitting.npz`` (and supine)."""
+
 VARIANTS: dict[str, dict[str, Any]] = {
     "full": {},
     # the shipped recipe
     "recovery": RECOVERY_ENV,
+    # the shipped recipe with starts along recorded rises for sitting and supine
+    "recovery_rises": {**RECOVERY_ENV, "rises.files": list(RISE_FILES)},
     # the paper's ablation: all three removed together
     "reduced": {"privileged_critic": False, "rewards.use_capture_point": False,
                 "curriculum.enabled": False},
@@ -50,6 +57,7 @@ VARIANTS: dict[str, dict[str, Any]] = {
 
 VARIANT_TRAIN: dict[str, dict[str, Any]] = {
     "recovery": {"init_std": 0.5, "max_std": 0.6, "save_interval": 25},
+    "recovery_rises": {"init_std": 0.5, "max_std": 0.6, "save_interval": 25},
 }
 """Variant name → TrainConfig settings other than the defaults (``ppo.<field>`` for PPO);
 absent: the defaults."""

@@ -1,0 +1,103 @@
+"""The ``hybrid`` controller with getting up: ground moves, then the supervised policy.
+
+On the ground (the QP does not apply, CoM below ``GetupConfig.ground_com_height``) the
+contact-state moves (:class:`hybrid_recovery.getup.move_executor.GroundMoves`) bring the
+robot to the hand-over state, knee-chest; then the hybrid supervisor takes over
+(:class:`hybrid_recovery.evaluation.model_controllers.HybridEvalController`: the policy,
+and the QP once the robot stands). If the robot ends up lying still under the policy,
+the moves start again. Everything runs on the PD-servo model at the ``learned``
+controller's step: the moves' joint targets are the servo targets, so from a standing
+start this controller is the supervisor exactly.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import mujoco
+import numpy as np
+
+from hybrid_recovery.control.supervisor import POLICY
+from hybrid_recovery.evaluation.model_controllers import HybridEvalController
+from hybrid_recovery.getup.controllers import GetupConfig, com_height, move_events
+from hybrid_recovery.getup.ground_state import classify, read_ground_pose
+from hybrid_recovery.getup.move_executor import MOVING, GroundMoves
+from hybrid_recovery.getup.moves import NEXT_MOVE
+
+MOVES, SUPERVISOR = "moves", "supervisor"
+
+
+class GroundHybridController:
+    """Ground moves → policy → QP (``--controller hybrid``).
+
+    Args:
+        policy: ``policy.onnx`` or the directory holding it.
+        config: Settings; defaults when None.
+    """
+
+    name = "hybrid"
+
+    def __init__(self, policy: str | Path, config: GetupConfig | None = None) -> None:
+        self.config = config or GetupConfig()
+        self.supervised = HybridEvalController(policy)
+        self.physics_dt = self.supervised.physics_dt
+        self.torque_control = self.supervised.torque_control
+        self.moves = GroundMoves(self.config.moves)
+
+    @property
+    def policy(self):
+        """The exported policy (its ``description`` holds the training provenance)."""
+        return self.supervised.supervisor.policy.policy
+
+    @property
+    def phase(self) -> str:
+        """What acts now: ``"settle"``, ``"<move>/<keyframe>"``, ``"policy"`` or ``"qp"``."""
+        if self.mode == MOVES:
+            move = self.moves.move
+            if move is None:
+                return "settle"
+            return f"{move.name}/{move.phases[self.moves.phase].keyframe}"
+        return self.supervised.supervisor.mode
+
+    def reset(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        self.supervised.reset(model, data)
+        self.handovers: list[tuple[float, str]] = []
+        self.move_log: list[tuple[float, str, str]] = []
+        self.relapses = 0
+        self._lying = 0.0
+        if (self.supervised.supervisor.mode == POLICY
+                and com_height(model, data) < self.config.ground_com_height):
+            self.mode = MOVES
+            self.moves.reset(model, data)
+        else:
+            self.mode = SUPERVISOR
+
+    def __call__(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+        """Servo targets q_ref (27,) [rad]."""
+        if self.mode == MOVES:
+            targets = self.moves.targets(model, data)
+            if self.moves.status == MOVING:
+                return targets
+            self.move_log += move_events(self.moves)
+            self.handovers.append((round(float(data.time), 3), self.moves.state))
+            self.mode = SUPERVISOR
+            self.supervised.reset(model, data)
+        ctrl = self.supervised(model, data)
+        if (self.supervised.supervisor.mode == POLICY
+                and self.relapses < self.config.max_relapses):
+            lying = (com_height(model, data) < self.config.ground_com_height
+                     and classify(read_ground_pose(model, data)) in NEXT_MOVE)
+            self._lying = self._lying + model.opt.timestep if lying else 0.0
+            if self._lying >= self.config.relapse_time - 1e-9:
+                self.relapses += 1
+                self._lying = 0.0
+                self.mode = MOVES
+                self.moves.reset(model, data)
+                return self.moves.targets(model, data)
+        return ctrl
+
+    def info(self) -> dict:
+        log = self.move_log + (move_events(self.moves) if self.mode == MOVES else [])
+        inner = self.supervised.info()
+        return {**inner, "final_mode": MOVES if self.mode == MOVES else inner["final_mode"],
+                "handovers": self.handovers, "moves": log, "relapses": self.relapses}
