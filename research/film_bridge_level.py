@@ -10,7 +10,6 @@ software.
 
 from __future__ import annotations
 
-import argparse
 from pathlib import Path
 
 import hybrid_recovery  # noqa: F401  (first: it chooses MuJoCo's OpenGL backend)
@@ -21,6 +20,7 @@ import matplotlib.pyplot as plt
 import mujoco
 import numpy as np
 import torch
+from bridge_args import bridge_parser
 
 from hybrid_recovery.sim.render import BalanceRenderer, add_overlay, balance_overlay
 from hybrid_recovery.training.probe import (
@@ -95,20 +95,8 @@ def sheet(film: dict, times: list[float], title: str, out: Path, size: int = 260
     plt.close(fig)
 
 
-def _parser() -> argparse.ArgumentParser:
-    """Runs, --levels K, --envs, --source, --target, --seed."""
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("runs", type=Path, nargs="+")
-    parser.add_argument("--levels", type=int, default=8)
-    parser.add_argument("--envs", type=int, default=64, help="episodes per level and run")
-    parser.add_argument("--source", default="half_kneeling")
-    parser.add_argument("--target", default="kneeling")
-    parser.add_argument("--seed", type=int, default=7)
-    return parser
-
-
 def main() -> None:
-    parser = _parser()
+    parser = bridge_parser(__doc__.split("\n")[0])
     parser.add_argument("--at", type=int, required=True, help="the bridge level k (of K)")
     parser.add_argument("--episodes", type=int, default=3)
     parser.add_argument("--times", type=float, nargs="+", default=list(DEFAULT_TIMES))

@@ -14,11 +14,11 @@ joint-range factor moves with that level: 0.90 at 1×, 0.91 at 2× with the defa
 
 from __future__ import annotations
 
-import argparse
 import json
 from pathlib import Path
 
 import torch
+from bridge_args import bridge_parser
 
 from hybrid_recovery.training.probe import bridge_env, first_episodes
 
@@ -42,20 +42,8 @@ def probe(run: Path, levels: int, num_envs: int, seed: int, source: str,
             "torque_scale": round(env.curriculum.torque_scale, 3), "stood_up_by_level": shares}
 
 
-def _parser() -> argparse.ArgumentParser:
-    """Runs, --levels K, --envs, --source, --target, --seed."""
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("runs", type=Path, nargs="+")
-    parser.add_argument("--levels", type=int, default=8)
-    parser.add_argument("--envs", type=int, default=64, help="episodes per level and run")
-    parser.add_argument("--source", default="half_kneeling")
-    parser.add_argument("--target", default="kneeling")
-    parser.add_argument("--seed", type=int, default=7)
-    return parser
-
-
 def main() -> None:
-    parser = _parser()
+    parser = bridge_parser(__doc__.split("\n")[0])
     parser.add_argument("--torque-scale", type=float, default=1.0)
     args = parser.parse_args()
     torch.set_num_threads(1)

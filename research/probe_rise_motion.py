@@ -12,13 +12,13 @@ which the starts draw at random.
 
 from __future__ import annotations
 
-import argparse
 import json
 from collections import Counter
 from pathlib import Path
 
 import numpy as np
 import torch
+from bridge_args import bridge_parser
 
 from hybrid_recovery.training.probe import (
     bridge_env,
@@ -87,20 +87,8 @@ def motion(run: Path, levels: int, at: list[int], num_envs: int, seed: int, sour
     return out
 
 
-def _parser() -> argparse.ArgumentParser:
-    """Runs, --levels K, --envs, --source, --target, --seed."""
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("runs", type=Path, nargs="+")
-    parser.add_argument("--levels", type=int, default=8)
-    parser.add_argument("--envs", type=int, default=64, help="episodes per level and run")
-    parser.add_argument("--source", default="half_kneeling")
-    parser.add_argument("--target", default="kneeling")
-    parser.add_argument("--seed", type=int, default=7)
-    return parser
-
-
 def main() -> None:
-    parser = _parser()
+    parser = bridge_parser(__doc__.split("\n")[0])
     parser.add_argument("--at", type=int, nargs="+", default=[3, 4, 8],
                         help="levels to probe (K: the target pose itself)")
     args = parser.parse_args()
