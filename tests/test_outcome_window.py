@@ -28,3 +28,13 @@ def test_oldest_outcomes_drop_out_and_clear_forgets():
 def test_a_window_needs_a_size():
     with pytest.raises(ValueError, match=r"^an outcome window needs size >= 1, got 0$"):
         OutcomeWindow(0)
+
+
+def test_level_step_advances_retreats_and_never_below_level_zero():
+    window = OutcomeWindow(4)
+    assert window.level_step([True] * 3, level=2, advance=0.75, retreat=0.25) == 0
+    assert window.level_step([True], level=2, advance=0.75, retreat=0.25) == 1
+    assert len(window) == 0  # cleared on a change
+    assert window.level_step([False] * 4, level=2, advance=0.75, retreat=0.25) == -1
+    assert window.level_step([False] * 4, level=0, advance=0.75, retreat=0.25) == 0
+    assert len(window) == 4  # no change at level 0: the window is kept

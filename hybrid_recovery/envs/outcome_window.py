@@ -58,6 +58,19 @@ class OutcomeWindow:
         rate = self.rate
         return 1 if rate >= advance else -1 if rate < retreat else 0
 
+    def level_step(self, outcomes: np.ndarray | Iterable[bool], level: int,
+                   advance: float, retreat: float) -> int:
+        """Adds ``outcomes`` (n,) bool of episodes started at ``level`` and returns the
+        level's change: +1, −1 (never below level 0) or 0; the window is cleared on a
+        change, so the next step is earned at the new level."""
+        self.extend(outcomes)
+        step = self.verdict(advance, retreat)
+        if step < 0 and level == 0:
+            step = 0
+        if step:
+            self.clear()
+        return step
+
     def clear(self) -> None:
         self._outcomes.clear()
 

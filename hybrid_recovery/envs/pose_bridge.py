@@ -88,14 +88,9 @@ class PoseBridge:
         stood_up = np.atleast_1d(stood_up)
         if levels is not None:
             stood_up = stood_up[np.atleast_1d(levels) == self.level[target]]
-        outcomes = self._outcomes[target]
-        outcomes.extend(stood_up)
-        step = outcomes.verdict(self.cfg.advance, self.cfg.retreat)
-        if step < 0 and self.level[target] == 0:
-            step = 0
-        if step:
-            outcomes.clear()
-            self.level[target] += step
+        step = self._outcomes[target].level_step(stood_up, self.level[target],
+                                                 self.cfg.advance, self.cfg.retreat)
+        self.level[target] += step
         return step
 
     def state_dict(self) -> dict:

@@ -221,14 +221,9 @@ class RiseStarts:
         if not self.active(pose):
             return 0
         mine = np.atleast_1d(stood_up)[np.atleast_1d(levels) == self.level[pose]]
-        outcomes = self._outcomes[pose]
-        outcomes.extend(mine)
-        step = outcomes.verdict(self.cfg.advance, self.cfg.retreat)
-        if step < 0 and self.level[pose] == 0:
-            step = 0
-        if step:
-            outcomes.clear()
-            self.level[pose] += step
+        step = self._outcomes[pose].level_step(mine, self.level[pose],
+                                               self.cfg.advance, self.cfg.retreat)
+        self.level[pose] += step
         return step
 
     def state_dict(self) -> dict:

@@ -106,7 +106,8 @@ def _errorbar_line(ax, xs, rows_at, label, shift=0.0):
     ax.errorbar(np.asarray(xs) + shift, rate, yerr=err, marker="o", capsize=3, label=label)
 
 
-def _finish(fig, ax, title: str, xlabel: str, ylabel: str, path: Path) -> None:
+def finish_panel(fig, ax, title: str, xlabel: str, ylabel: str, path: Path) -> None:
+    """Titles, labels, grid and legend of one panel, saved to ``path`` and closed."""
     ax.set_title(title)
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
@@ -145,7 +146,7 @@ def overlay_figures(results: dict[str, list[dict]], out: Path) -> list[tuple[str
                    yerr=np.nan_to_num(err), capsize=3, label=c)
         ax.set_xticks(np.arange(len(poses)) + 0.4 - width / 2, poses)
         ax.set_ylim(0, 1.05)
-        _finish(fig, ax, "(A) recovery without push", "start pose", "success rate",
+        finish_panel(fig, ax, "(A) recovery without push", "start pose", "success rate",
                 out / "overlay_A_no_push.png")
         figs.append(("(A) success without push, per pose (95 % CI)", "overlay_A_no_push.png"))
     panels = [("force", "(B–C) success vs force", "push force [N]", "BC_force", False),
@@ -177,7 +178,7 @@ def overlay_figures(results: dict[str, list[dict]], out: Path) -> list[tuple[str
             ax.set_xticks(shown, [_DIRECTION_NAMES.get(d, f"{d:.2f}") for d in shown])
         if not times:
             ax.set_ylim(-0.02, 1.05)
-        _finish(fig, ax, title, xlabel, "mean recovery time [s]" if times else "success rate",
+        finish_panel(fig, ax, title, xlabel, "mean recovery time [s]" if times else "success rate",
                 out / f"overlay_{stem}.png")
         figs.append((f"{title} (95 % intervals)", f"overlay_{stem}.png"))
     return figs

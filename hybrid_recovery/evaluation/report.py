@@ -13,7 +13,11 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from hybrid_recovery.dynamics.support import support_polygon  # noqa: E402
-from hybrid_recovery.evaluation.overlay import difference_table, overlay_figures  # noqa: E402
+from hybrid_recovery.evaluation.overlay import (  # noqa: E402
+    difference_table,
+    finish_panel,
+    overlay_figures,
+)
 from hybrid_recovery.evaluation.scenario import SWEEP_DIRECTIONS  # noqa: E402
 from hybrid_recovery.evaluation.success import wilson_interval  # noqa: E402
 
@@ -135,14 +139,7 @@ def _plot_lines(rows, x_key, y_fn, ylabel, title, path, x_label):
                 xs.append(x)
                 ys.append(y)
         ax.plot(xs, ys, marker="o", label=pose)
-    ax.set_xlabel(x_label)
-    ax.set_ylabel(ylabel)
-    ax.set_title(title)
-    ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    finish_panel(fig, ax, title, x_label, ylabel, path)
 
 
 def _mean_time(rows):
