@@ -181,14 +181,20 @@ def main() -> None:
               f"{floor_contacts(model, data)[0]}")
         rows += summarise([s for s in samples if s.phase.startswith("probe_side_sit/side_sit_")])
     print(f"in side-sit: {reached}/{len(args.seeds)}")
-    print("phase | feasible (mean over seeds) | least margin | largest unbalanced wrench")
+    print("phase | feasible (mean over seeds) | least margin | largest unbalanced wrench | "
+          "why not (seeds)")
     for phase in dict.fromkeys(r.phase for r in rows):
         ps = [r for r in rows if r.phase == phase]
         margins = [r.min_margin for r in ps if not np.isnan(r.min_margin)]
+        why: dict[str, int] = {}
+        for r in ps:
+            if r.reason:
+                why[r.reason] = why.get(r.reason, 0) + 1
         print(f"{phase.split('/')[1]} | {100 * np.mean([r.feasible_fraction for r in ps]):.0f} % | "
               f"{min(margins) if margins else float('nan'):+.2f} | "
               f"{max(r.max_leftover_force for r in ps):.0f} N, "
-              f"{max(r.max_leftover_moment for r in ps):.0f} N·m")
+              f"{max(r.max_leftover_moment for r in ps):.0f} N·m | "
+              + ", ".join(f"{k} ({n})" for k, n in sorted(why.items(), key=lambda kv: -kv[1])))
 
 
 if __name__ == "__main__":
