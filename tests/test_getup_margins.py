@@ -48,6 +48,21 @@ def test_every_collision_geom_is_a_named_contact(model):
             assert model.geom(g).name in GEOM_CONTACTS, model.geom(g).name
 
 
+@pytest.mark.parametrize("lean, expected", [
+    (0.25, ("left_toes", "right_toes")), (0.0, ("left_foot", "right_foot")),
+    (-0.25, ("left_heel", "right_heel"))])
+def test_a_sole_touching_ahead_behind_or_along_is_toes_heel_or_foot(model, lean, expected):
+    assert floor_contacts(model, _on_toes(model, lean)) == (expected, ())
+
+
+def test_lying_on_the_back_touches_with_the_back_not_the_chest(model):
+    data = mujoco.MjData(model)
+    data.qpos[3:7] = [np.cos(-np.pi / 4), 0.0, np.sin(-np.pi / 4), 0.0]
+    seat_single(model, data)
+    data = _held(model, data.qpos.copy(), 1.5)
+    assert floor_contacts(model, data) == (("back", "left_heel", "right_heel"), ())
+
+
 def _held(model, qpos: np.ndarray, seconds: float) -> mujoco.MjData:
     """``qpos`` dropped onto the floor and held by joint PD on its own joints."""
     qadr = np.array([model.joint(n).qposadr[0] for n in constants.JOINT_NAMES])
@@ -89,8 +104,8 @@ def test_a_held_keyframe_has_the_margin_of_its_own_check(model, robot, ik, name)
 
 
 def _on_toes(model, lean: float) -> mujoco.MjData:
-    """The default standing pose tipped forward by ``lean`` [rad] about the toe edges,
-    the toes 1 mm into the floor."""
+    """The default standing pose pitched by ``lean`` [rad] (forward > 0), its lowest
+    point 1 mm into the floor."""
     data = mujoco.MjData(model)
     data.qpos[3:7] = [np.cos(lean / 2), 0.0, np.sin(lean / 2), 0.0]
     data.qpos[7:] = constants.DEFAULT_JOINT_POS
