@@ -131,8 +131,8 @@ def test_com_ahead_of_the_toes_is_unsupported_in_the_table(model, robot):
     assert sample.leftover_moment <= robot.mass * GRAVITY * lever + 1e-6
     upright = state_margin(robot, model, _on_toes(model, 0.0))
     assert upright.contacts == ("left_foot", "right_foot") and upright.feasible
-    result = {"move": "tuck", "start": "prone", "start_state": "prone", "arrived": False,
-              "phases": summarise([sample])}
+    result = {"move": "tuck", "seed": 0, "start": "prone", "start_state": "prone",
+              "arrived": False, "samples": [sample]}
     row = margin_table([result]).splitlines()[3]
     assert row.startswith("| hand/made | 1 | 0 % | — | ")
     assert row.endswith(" | base unsupported |")
@@ -162,6 +162,9 @@ def test_unknown_move_messages(model, capsys):
         move_margins(["tuck", "fly"])
     assert str(err.value) == UNKNOWN_MOVE
     with pytest.raises(ValueError) as err:
+        move_margins(["tuck"], seeds=[])
+    assert str(err.value) == "name at least one seed"
+    with pytest.raises(ValueError) as err:
         margins_along(model, mujoco.MjData(model), SingleMove("tuck"), every=0.0)
     assert str(err.value) == "every must be > 0, got 0.0"
     assert main(["getup", "margins", "--move", "fly"]) == 2
@@ -170,11 +173,14 @@ def test_unknown_move_messages(model, capsys):
 
 def test_cli_prints_the_table_and_writes_every_state(tmp_path, capsys):
     out, plot = tmp_path / "m.csv", tmp_path / "m.png"
-    assert main(["getup", "margins", "--move", "tuck", "--out", str(out),
+    assert main(["getup", "margins", "--move", "tuck", "--seed", "0", "1", "--out", str(out),
                  "--plot", str(plot)]) == 0
     text = capsys.readouterr().out
-    assert "| **tuck** from a prone start (settled prone) | | | | | ends in knee_chest |" in text
+    assert ("| **tuck** from prone starts (seeds 0 1; settled prone 2) | | | | | knee_chest "
+            "reached 2/2 |") in text
+    assert "\n| tuck/knee_chest | 120 | " in text  # one row pooling both runs
     with out.open() as f:
         rows = list(csv.DictReader(f))
-    assert len(rows) == 60 and {r["phase"] for r in rows} == {"tuck/knee_chest"}
+    assert len(rows) == 120 and {r["phase"] for r in rows} == {"tuck/knee_chest"}
+    assert [r["seed"] for r in rows] == ["0"] * 60 + ["1"] * 60
     assert plot.stat().st_size > 1000

@@ -45,7 +45,7 @@ def _margins(args: argparse.Namespace) -> int:
         write_csv,
     )
 
-    results = move_margins(None if args.move is None else [args.move], seed=args.seed)
+    results = move_margins(None if args.move is None else [args.move], seeds=args.seed)
     print(margin_table(results))
     if args.out:
         print(f"states: {write_csv(results, args.out)}")
@@ -79,7 +79,8 @@ def _configure(p: argparse.ArgumentParser) -> None:
     hmap.set_defaults(_getup=_map)
     marg = sub.add_parser("margins", help="the static margin table along each move")
     marg.add_argument("--move", default=None, help="one move (default: every move)")
-    marg.add_argument("--seed", type=int, default=0, help="seed of the noisy start")
+    marg.add_argument("--seed", type=int, nargs="+", default=[0],
+                      help="seeds of the noisy starts (the table pools them)")
     marg.add_argument("--out", default=None, help="CSV file for every checked state")
     marg.add_argument("--plot", default=None, help="PNG: margin against time per move")
     marg.set_defaults(_getup=_margins)

@@ -61,39 +61,43 @@ def move_start(model: mujoco.MjModel, move: str, seed: int) -> mujoco.MjData:
     return data
 
 
-def move_margins(moves: list[str] | tuple[str, ...] | None = None, seed: int = 0,
-                 every: float = 0.1) -> list[dict]:
-    """Executes each move from its start and checks its states.
+def move_margins(moves: list[str] | tuple[str, ...] | None = None,
+                 seeds: list[int] | tuple[int, ...] = (0,), every: float = 0.1) -> list[dict]:
+    """Executes each move from its start, once per seed, and checks its states.
 
     Args:
         moves: Move names (None: every move of :data:`~hybrid_recovery.getup.moves.ALL_MOVES`).
-        seed: Seed of the noisy start.
+        seeds: Seeds of the noisy starts.
         every: Sampling period [s].
 
     Returns:
-        Per move: ``{"move", "start", "start_state", "events", "arrived", "samples",
-        "phases"}`` (``start``: the evaluation pose, ``start_state``: the ground state it
-        settled in) with the
+        Per move and seed: ``{"move", "seed", "start", "start_state", "events",
+        "arrived", "samples", "phases"}`` (``start``: the evaluation pose,
+        ``start_state``: the ground state it settled in) with the
         :class:`~hybrid_recovery.getup.margins.MarginSample` list and its
         :class:`~hybrid_recovery.getup.margins.PhaseMargins` summary.
 
     Raises:
-        ValueError: an unknown move.
+        ValueError: an unknown move, or no seed.
     """
     names = list(ALL_MOVES) if moves is None else list(moves)
     for name in names:
         _check_move(name)
+    if len(seeds) == 0:
+        raise ValueError("name at least one seed")
     model = load_torque_model()
     out = []
     for name in names:
-        data = move_start(model, name, seed)
-        single = SingleMove(name)
-        samples = margins_along(model, data, single, every=every)
-        out.append({"move": name, "start": MOVE_STARTS.get(name, "sitting"),
-                    "events": [(round(e.time, 2), e.kind, e.message) for e in single.events],
-                    "start_state": single.start_state,
-                    "arrived": single.status == "arrived", "samples": samples,
-                    "phases": summarise(samples)})
+        for seed in seeds:
+            data = move_start(model, name, seed)
+            single = SingleMove(name)
+            samples = margins_along(model, data, single, every=every)
+            out.append({"move": name, "seed": seed, "start": MOVE_STARTS.get(name, "sitting"),
+                        "events": [(round(e.time, 2), e.kind, e.message)
+                                   for e in single.events],
+                        "start_state": single.start_state,
+                        "arrived": single.status == "arrived", "samples": samples,
+                        "phases": summarise(samples)})
     return out
 
 
@@ -106,23 +110,35 @@ def _row(p: PhaseMargins) -> str:
             f"{p.max_leftover_force:.0f} N, {p.max_leftover_moment:.0f} N·m | {why} |")
 
 
+def _by_move(results: list[dict]) -> dict[str, list[dict]]:
+    groups: dict[str, list[dict]] = {}
+    for result in results:
+        groups.setdefault(result["move"], []).append(result)
+    return groups
+
+
 def margin_table(results: list[dict]) -> str:
-    """The margin table (Markdown): per move and phase, the states checked, the fraction
-    statically feasible, the least margin 1 − ρ over the supported states, the largest
-    unbalanced wrench over the unsupported ones and why the rest are not feasible."""
+    """The margin table (Markdown): per move, how many runs reached its end state and the
+    states their starts settled in; per phase, over the states of every run, the states
+    checked, the fraction statically feasible, the least margin 1 − ρ over the supported
+    ones, the largest unbalanced wrench over the unsupported ones and the most frequent
+    reason the rest are not feasible."""
     lines = ["| move/phase | states | statically feasible | min margin 1 − ρ | "
              "largest unbalanced wrench | where not feasible |",
              "|---|---|---|---|---|---|"]
-    for result in results:
-        end = ALL_MOVES[result["move"]].end
-        lines.append(f"| **{result['move']}** from a {result['start']} start "
-                     f"(settled {result['start_state']}) | | | | | "
-                     f"{'ends in ' + end if result['arrived'] else 'missed ' + end} |")
-        lines += [_row(p) for p in result["phases"]]
+    for move, runs in _by_move(results).items():
+        settled = dict.fromkeys(r["start_state"] for r in runs)
+        counts = ", ".join(f"{state} {sum(r['start_state'] == state for r in runs)}"
+                           for state in settled)
+        seeds = " ".join(str(r["seed"]) for r in runs)
+        lines.append(f"| **{move}** from {runs[0]['start']} starts (seeds {seeds}; settled "
+                     f"{counts}) | | | | | {ALL_MOVES[move].end} reached "
+                     f"{sum(r['arrived'] for r in runs)}/{len(runs)} |")
+        lines += [_row(p) for p in summarise([s for r in runs for s in r["samples"]])]
     return "\n".join(lines)
 
 
-CSV_FIELDS = ("move", "time", "phase", "dynamic", "feasible", "supported", "margin",
+CSV_FIELDS = ("move", "seed", "time", "phase", "dynamic", "feasible", "supported", "margin",
               "leftover_force", "leftover_moment", "contacts", "unmapped", "reason")
 """Columns of :func:`write_csv` (time [s], margin 1 − ρ [-], force [N], moment [N·m])."""
 
@@ -137,24 +153,26 @@ def write_csv(results: list[dict], path: str | Path) -> Path:
         for result in results:
             s: MarginSample
             for s in result["samples"]:
-                writer.writerow([result["move"], f"{s.time:.3f}", s.phase, int(s.dynamic),
-                                 int(s.feasible), int(s.supported), f"{s.margin:.4f}",
-                                 f"{s.leftover_force:.2f}", f"{s.leftover_moment:.2f}",
+                writer.writerow([result["move"], result["seed"], f"{s.time:.3f}", s.phase,
+                                 int(s.dynamic), int(s.feasible), int(s.supported),
+                                 f"{s.margin:.4f}", f"{s.leftover_force:.2f}",
+                                 f"{s.leftover_moment:.2f}",
                                  " ".join(s.contacts), " ".join(s.unmapped), s.reason])
     return path
 
 
 def plot_margins(results: list[dict], path: str | Path) -> Path:
-    """Margin 1 − ρ against time, one panel per move; unsupported states in red at the
-    bottom, dynamic phases shaded."""
+    """Margin 1 − ρ against time, one panel per move (every seed's states); unsupported
+    states as red crosses at the bottom, dynamic phases shaded."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(len(results), 1, figsize=(7, 1.9 * len(results)), squeeze=False)
-    for ax, result in zip(axes[:, 0], results, strict=True):
-        samples: list[MarginSample] = result["samples"]
+    groups = _by_move(results)
+    fig, axes = plt.subplots(len(groups), 1, figsize=(7, 1.9 * len(groups)), squeeze=False)
+    for ax, (move, runs) in zip(axes[:, 0], groups.items(), strict=True):
+        samples: list[MarginSample] = [s for r in runs for s in r["samples"]]
         t = np.array([s.time for s in samples])
         margin = np.clip([s.margin for s in samples], -1.0, 1.0)
         ok = np.array([s.supported for s in samples], dtype=bool)
@@ -167,7 +185,7 @@ def plot_margins(results: list[dict], path: str | Path) -> Path:
         ax.axhline(0.0, color="k", lw=0.6)
         ax.set_ylim(-1.1, 1.05)
         ax.set_ylabel("1 − ρ")
-        ax.set_title(f"{result['move']} from a {result['start']} start", fontsize=9)
+        ax.set_title(f"{move} from {runs[0]['start']} starts ({len(runs)} seeds)", fontsize=9)
     axes[-1, 0].set_xlabel("time in the move [s]")
     axes[0, 0].legend(loc="lower right", fontsize=7)
     fig.tight_layout()
