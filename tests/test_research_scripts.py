@@ -159,3 +159,21 @@ def test_assisted_pose_probe_pulls_at_each_fraction_and_never_anneals(run, monke
         module.probe(run, "lotus", [0.0], EPISODES, 3)
     with pytest.raises(ValueError, match="fractions"):
         module.probe(run, "kneeling", [1.0], EPISODES, 3)
+
+
+def test_the_side_sit_probe_chain_holds_every_keyframe_statically():
+    from hybrid_recovery.control.torque_model import load_torque_model
+    from hybrid_recovery.dynamics import RobotModel
+    from hybrid_recovery.getup.feasibility import static_feasibility
+
+    probe = _script("probe_side_sit")
+    model = load_torque_model()
+    robot = RobotModel(model)
+    chain = probe.side_sit_chain(model)
+    assert [name for name, _, _ in chain][::5] == ["a0.1", "a0.6", "b0.25"]
+    lo, hi = model.jnt_range[1:, 0], model.jnt_range[1:, 1]
+    mid, half = (lo + hi) / 2, (hi - lo) / 2
+    for name, qpos, contacts in chain:
+        check = static_feasibility(robot, qpos, contacts)  # refuses a contact 3 cm up
+        assert check.feasible and check.worst_ratio < 0.5, (name, check.reason)
+        assert np.all(np.abs(qpos[7:] - mid) <= 0.9 * half + 1e-9), name
