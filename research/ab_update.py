@@ -107,7 +107,7 @@ def main() -> None:
     for i, label in enumerate(args.settings):
         data = curves(args.root, label, args.seeds)
         cells = []
-        for ax, (tag, name) in zip(axes, TAGS):
+        for ax, (tag, name) in zip(axes, TAGS, strict=True):
             runs = data[tag]
             if not runs:
                 cells.append("–")
@@ -123,7 +123,8 @@ def main() -> None:
             last = stack[:, -args.window:].mean(1)
             cells.append(f"{last.mean():.3g} ± {last.std():.2g}")
         print(f"| {label} | {len(data[TAGS[0][0]])} | {' | '.join(cells)} |")
-    axes[0].legend(fontsize=8)
+    if axes[0].get_legend_handles_labels()[0]:
+        axes[0].legend(fontsize=8)
     fig.suptitle(f"PPO update settings from scratch ({args.variant}, {args.num_envs} envs, "
                  f"seeds {' '.join(map(str, args.seeds))}; thick: mean over seeds)",
                  fontsize=10)

@@ -5,6 +5,7 @@ the motion figures equal to those computed from what that actor saw."""
 from __future__ import annotations
 
 import importlib.util
+import json
 import sys
 from pathlib import Path
 from types import ModuleType
@@ -177,3 +178,26 @@ def test_the_side_sit_probe_chain_holds_every_keyframe_statically():
         check = static_feasibility(robot, qpos, contacts)  # refuses a contact 3 cm up
         assert check.feasible and check.worst_ratio < 0.5, (name, check.reason)
         assert np.all(np.abs(qpos[7:] - mid) <= 0.9 * half + 1e-9), name
+
+
+def test_ab_update_trains_each_setting_once_and_draws(tmp_path, monkeypatch, capsys):
+    """Each (setting, seed) is a run with that setting's PPO update; a finished run is
+    kept, not trained again; the table has one row per setting."""
+    module = _script("ab_update")
+    argv = ["ab_update.py", "--root", str(tmp_path / "ab"), "--seeds", "3", "--iterations",
+            "1", "--num-envs", "8", "--threads", "1", "--variant", "full",
+            "--settings", "5 epochs, fp32", "2 epochs, fp32", "--out", str(tmp_path / "ab.png")]
+    monkeypatch.setattr(sys, "argv", argv)
+    module.main()
+    runs = {label: module.run_dir(tmp_path / "ab", label, 3)
+            for label in ("5 epochs, fp32", "2 epochs, fp32")}
+    for label, run_dir in runs.items():
+        saved = json.loads((run_dir / "config.json").read_text())["train_config"]
+        assert saved["ppo"]["num_learning_epochs"] == module.SETTINGS[label]["num_learning_epochs"]
+        assert saved["seed"] == 3
+    stamps = {label: (d / "latest.pt").stat().st_mtime_ns for label, d in runs.items()}
+    module.main()
+    assert {label: (d / "latest.pt").stat().st_mtime_ns for label, d in runs.items()} == stamps
+    table = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| ")]
+    assert [row.split(" | ")[0] for row in table[-2:]] == ["| 5 epochs, fp32", "| 2 epochs, fp32"]
+    assert (tmp_path / "ab.png").stat().st_size > 0
