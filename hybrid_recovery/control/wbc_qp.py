@@ -103,6 +103,17 @@ class QpProblem:
                 self.upper, self.box_lower, self.box_upper)
 
 
+def stack_tasks(tasks: list[Task]) -> tuple[np.ndarray, np.ndarray]:
+    """(√w J, √w b) of all tasks stacked, shapes (Σk, nv) and (Σk,): Σ w ‖J q̈ − b‖² is
+    ‖(√w J) q̈ − √w b‖²."""
+    rows, rhs = [], []
+    for t in tasks:
+        root = np.sqrt(np.broadcast_to(np.asarray(t.weight, float), t.target.shape))
+        rows.append(root[:, None] * t.jacobian)
+        rhs.append(root * t.target)
+    return np.concatenate(rows), np.concatenate(rhs)
+
+
 def pyramid_basis(mu: float) -> np.ndarray:
     """B, shape (3, 4): unit edges of the inner friction pyramid of a flat ground (z up)."""
     theta = np.arange(4) * np.pi / 2
@@ -188,11 +199,7 @@ class WholeBodyQP:
         nf = g_map.shape[1]
         n = nv + nf
         # Cost
-        rows = [np.sqrt(np.broadcast_to(np.asarray(t.weight, float), t.target.shape))[:, None]
-                * t.jacobian for t in tasks]
-        rhs = [np.sqrt(np.broadcast_to(np.asarray(t.weight, float), t.target.shape)) * t.target
-               for t in tasks]
-        jac, b = np.concatenate(rows), np.concatenate(rhs)
+        jac, b = stack_tasks(tasks)
         hess = np.zeros((n, n))
         hess[:nv, :nv] = jac.T @ jac + cfg.w_qacc * np.eye(nv)
         hess[nv:, nv:] = cfg.w_force * np.eye(nf)

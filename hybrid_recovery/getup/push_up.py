@@ -1,0 +1,215 @@
+"""The push-up from knee-chest to hands and knees under the multi-contact torque QP.
+
+Joint PD cannot do this move: at the best force distribution it needs 65 % of the arm
+limits, and PD does not realise that distribution (the arms take more than their share
+and saturate). :class:`PushUp` runs it at torque level instead
+(:class:`hybrid_recovery.getup.contact_qp.ContactQP`, ``ctrl = τ`` on the torque model,
+every physics step) on the hands, knees and toes:
+
+* posture task: q̈°_a = q̈_r + K_p (q_r − q) + K_d (q̇_r − q̇), q_r a smoothstep from the
+  joints at the start to the keyframe (clamped to the ranges × ``range_factor``) over
+  ``duration``;
+* base task: the pelvis height z_r on a smoothstep from its start to ``pelvis_height``,
+  z̈° = z̈_r + K_z (z_r − z) + D_z (ż_r − ż), and the pelvis's angular velocity damped;
+* forces pulled toward the static-feasibility QP's
+  (:func:`hybrid_recovery.getup.feasibility.static_feasibility`) on the same contacts,
+  refreshed every ``force_update`` seconds.
+
+A named contact of the set takes part while its lowest point is within ``contact_band``
+of the floor.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+
+from hybrid_recovery.control.wbc_qp import Task
+from hybrid_recovery.getup.contact_map import floor_contacts
+from hybrid_recovery.getup.contact_qp import ContactQP, ContactQpConfig, ContactQpSolution
+from hybrid_recovery.getup.contacts import FLOOR_CONTACTS, contact_points_world
+from hybrid_recovery.getup.feasibility import static_feasibility
+from hybrid_recovery.getup.ground_state import read_ground_pose
+from hybrid_recovery.getup.keyframes import KEYFRAMES
+from hybrid_recovery.robot import constants
+from hybrid_recovery.robot.limits import SafetyLimits
+
+HANDS_KNEES_TOES = ("left_hand", "right_hand", "left_knee", "right_knee", "left_toes",
+                    "right_toes")
+"""The push-up's contact set."""
+
+_ALLOWED = {f"{side}_{part}" for side in ("left", "right")
+            for part in ("hand", "knee", "shin", "toes", "heel", "foot")}
+
+
+@dataclass(frozen=True)
+class PushUpConfig:
+    """Settings of :class:`PushUp`.
+
+    Attributes:
+        keyframe: Joint keyframe to reach (:data:`~hybrid_recovery.getup.keyframes.KEYFRAMES`).
+        contacts: Named contacts that may bear load.
+        duration: Smoothstep duration [s].
+        pelvis_height: Pelvis height z at the end [m] (settled hands and knees: 0.50).
+        kp_posture: K_p [1/s²]. kd_posture: K_d [1/s]. w_posture: task weight.
+        kp_height: K_z [1/s²]. kd_height: D_z [1/s]. w_height: task weight.
+        kd_pelvis: Pelvis angular velocity damping [1/s]. w_pelvis: its weight.
+        force_update: Period of the reference-force refresh [s].
+        contact_band: A contact takes part within this height of the floor [m].
+        range_factor: Keyframe clamped to the joint ranges × this about their middle.
+        qp: Settings of the QP.
+    """
+
+    keyframe: str = "hands_knees"
+    contacts: tuple[str, ...] = HANDS_KNEES_TOES
+    duration: float = 3.0
+    pelvis_height: float = 0.50
+    kp_posture: float = 100.0
+    kd_posture: float = 20.0
+    w_posture: float = 1.0
+    kp_height: float = 100.0
+    kd_height: float = 20.0
+    w_height: float = 10.0
+    kd_pelvis: float = 10.0
+    w_pelvis: float = 1.0
+    force_update: float = 0.05
+    contact_band: float = 0.01
+    range_factor: float = 0.9
+    qp: ContactQpConfig = field(default_factory=ContactQpConfig)
+
+    def __post_init__(self) -> None:
+        if self.keyframe not in KEYFRAMES:
+            raise ValueError(f"unknown keyframe '{self.keyframe}': use one of {sorted(KEYFRAMES)}")
+        if not self.duration > 0.0:
+            raise ValueError(f"duration must be > 0, got {self.duration}")
+
+
+def _smoothstep(t: float) -> tuple[float, float, float]:
+    """s, ds/dt, d²s/dt² of s = 3t² − 2t³ on t ∈ [0, 1], constant outside."""
+    if t <= 0.0 or t >= 1.0:
+        return (0.0 if t <= 0.0 else 1.0), 0.0, 0.0
+    return t * t * (3.0 - 2.0 * t), 6.0 * t * (1.0 - t), 6.0 - 12.0 * t
+
+
+class PushUp:
+    """τ for the push-up, one QP per physics step.
+
+    Attributes:
+        statuses: Count of each :attr:`ContactQpSolution.status` so far.
+        worst_ratio: max_j |τ_j| / τ_max,j over the steps so far.
+        last: The last :class:`ContactQpSolution`.
+    """
+
+    def __init__(self, config: PushUpConfig | None = None) -> None:
+        self.config = config or PushUpConfig()
+
+    def reset(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        """Starts the move from ``data``'s state."""
+        cfg = self.config
+        self.qp = ContactQP(model, cfg.qp)
+        self._qadr = np.array([model.joint(n).qposadr[0] for n in constants.JOINT_NAMES])
+        self._pelvis = model.body(constants.PELVIS_BODY).id
+        lo, hi = SafetyLimits.from_model(model).q_ref_bounds(cfg.range_factor)
+        self._q0 = data.qpos[self._qadr].copy()
+        self._q1 = np.clip(KEYFRAMES[cfg.keyframe], lo, hi)
+        self._z0 = float(data.xpos[self._pelvis, 2])
+        self._t0 = float(data.time)
+        self._next_forces = self._t0
+        self._reference: dict[str, np.ndarray] = {}
+        self.statuses: dict[str, int] = {}
+        self.worst_ratio = 0.0
+        self.last: ContactQpSolution | None = None
+
+    def active(self) -> tuple[str, ...]:
+        """Contacts of the set whose lowest point is within the band (after a read)."""
+        m, d = self.qp.model, self.qp.reader.data
+        out = []
+        for name in self.config.contacts:
+            contact = FLOOR_CONTACTS[name]
+            body = m.body(contact.body).id
+            low = contact_points_world(contact, d.xpos[body], d.xmat[body].reshape(3, 3))
+            if low[:, 2].min() <= self.config.contact_band:
+                out.append(name)
+        return tuple(out)
+
+    def tasks(self, data: mujoco.MjData, time: float) -> list[Task]:
+        """The posture, pelvis-height and pelvis-damping tasks at ``time`` [s]."""
+        cfg, nv = self.config, self.qp.nv
+        s, ds, dds = _smoothstep((time - self._t0) / cfg.duration)
+        rate, curv = ds / cfg.duration, dds / cfg.duration**2
+        delta = self._q1 - self._q0
+        q, qd = data.qpos[self._qadr], data.qvel[6:]
+        posture = np.hstack([np.zeros((27, 6)), np.eye(27)])
+        target = (curv * delta + cfg.kp_posture * (self._q0 + s * delta - q)
+                  + cfg.kd_posture * (rate * delta - qd))
+        m, d = self.qp.model, self.qp.reader.data
+        jac, jdot = np.zeros((3, nv)), np.zeros((3, nv))
+        mujoco.mj_jacBody(m, d, jac, None, self._pelvis)
+        mujoco.mj_jacDot(m, d, jdot, None, d.xpos[self._pelvis], self._pelvis)
+        dz = cfg.pelvis_height - self._z0
+        z, zd = float(d.xpos[self._pelvis, 2]), float(jac[2] @ d.qvel)
+        height = (curv * dz + cfg.kp_height * (self._z0 + s * dz - z)
+                  + cfg.kd_height * (rate * dz - zd) - float(jdot[2] @ d.qvel))
+        state = self._state
+        damping = -cfg.kd_pelvis * state.pelvis_angvel - state.pelvis_bias_acc
+        return [Task("posture", posture, target, cfg.w_posture),
+                Task("pelvis_height", jac[2:3], np.array([height]), cfg.w_height),
+                Task("pelvis_damping", state.pelvis_jacobian, damping, cfg.w_pelvis)]
+
+    def _reference_forces(self, data: mujoco.MjData, active: tuple[str, ...],
+                          names: tuple[str, ...]) -> np.ndarray | None:
+        """f° per point: the static check's forces on ``active`` (refreshed every
+        ``force_update``), a contact's total split evenly where its points differ."""
+        if float(data.time) >= self._next_forces or set(self._reference) != set(active):
+            self._next_forces = float(data.time) + self.config.force_update
+            try:
+                check = static_feasibility(self.qp.reader.robot, data.qpos, active)
+            except ValueError:
+                return None
+            if not check.supported:
+                return None
+            self._reference = dict(check.forces)
+        out = []
+        names_arr = np.array(names)
+        for name in active:
+            count = int((names_arr == name).sum())
+            forces = self._reference[name]
+            out.extend(forces if len(forces) == count
+                       else [forces.sum(axis=0) / max(count, 1)] * count)
+        return np.array(out).reshape(-1, 3)
+
+    def __call__(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
+        """τ (27,) [N·m], motor order, for ``data``'s state."""
+        self._state = self.qp.read(data)
+        active = self.active() or self.config.contacts[:1]
+        names = self.qp.points(active).names
+        reference = self._reference_forces(data, active, names)
+        solution = self.qp.solve(self._state, active, self.tasks(data, float(data.time)),
+                                 reference)
+        self.last = solution
+        self.statuses[solution.status] = self.statuses.get(solution.status, 0) + 1
+        ratio = float(np.max(np.abs(solution.torque) / constants.EFFORT_LIMITS))
+        self.worst_ratio = max(self.worst_ratio, ratio)
+        return solution.torque
+
+
+def on_hands_and_knees(model: mujoco.MjModel, data: mujoco.MjData,
+                       min_pelvis_height: float = 0.45, min_spine_z: float = -0.1
+                       ) -> tuple[bool, str]:
+    """Whether a forwarded state is on hands and knees: both hands and both knees on the
+    floor and nothing else but shins and feet, chest facing down (its axis within 37° of
+    −ẑ), the pelvis at least ``min_pelvis_height`` [m] high and the spine no more than
+    asin(−min_spine_z) below horizontal (knee-chest: −20° to −24°).
+
+    Returns:
+        (on hands and knees, what was read).
+    """
+    touching, _ = floor_contacts(model, data)
+    pose = read_ground_pose(model, data)
+    need = {"left_hand", "right_hand", "left_knee", "right_knee"}
+    ok = (need <= set(touching) and set(touching) <= _ALLOWED and pose.chest_z < -0.8
+          and pose.pelvis_height >= min_pelvis_height and pose.spine_z >= min_spine_z)
+    return ok, (f"touching {list(touching)}, pelvis {pose.pelvis_height:.3f} m, "
+                f"spine_z {pose.spine_z:.2f}, chest_z {pose.chest_z:.2f}")
