@@ -11,8 +11,14 @@ translational Jacobian (3, nv) and G = Σ_i J_iᵀ B, decision variables x = [q�
     s.t. M_u q̈ − G_u ρ = −h_u                           (floating base, 6 rows)
          J_i q̈ = −J̇_i q̇ − k_c J_i q̇                    (each active point, 3 rows)
          −τ_max ≤ M_a q̈ + h_a − G_a ρ ≤ τ_max           (27 torque rows)
-         q̈_lo ≤ q̈_a ≤ q̈_hi                             (joint-limit box of wbc_qp)
+         q̈_lo ≤ q̈_a ≤ q̈_hi                             (joint-limit box)
          0 ≤ ρ ≤ ρ_max
+
+The joint-limit box is the standing QP's, q̈_hi = 2 (q_hi − δ − q − q̇ T)/T², with one
+change: it never asks more than stopping within T, q̈_hi ≥ −max(q̇, 0)/T (likewise
+q̈_lo). A joint inside its margin is then held, not pushed out: with hands, knees and toes
+on the floor a leg is a closed chain that often cannot move a joint away from its limit,
+and the push-out made the standing box infeasible there.
 
 f°_i are the reference forces, e.g. the static-feasibility QP's
 (:func:`hybrid_recovery.getup.feasibility.static_feasibility`): the distribution is
@@ -148,7 +154,7 @@ class ContactQP:
         self._qps: dict[tuple, proxsuite.proxqp.dense.QP] = {}
         self.last_good: np.ndarray | None = None
         self.solver_report = ""
-        """proxsuite's status and residuals of the last solve attempt."""
+        """proxsuite's status and residuals of the last tick's solve attempts."""
 
     def reset(self) -> None:
         """Forgets warm starts and the last good command."""
@@ -229,8 +235,10 @@ class ContactQP:
         box_lo, box_hi = free_lo.copy(), free_hi.copy()
         horizon = cfg.limit_horizon
         q, qd = state.qpos[7:], state.qvel[6:]
-        box_lo[6:nv] = 2.0 * (self.q_lo - q - qd * horizon) / horizon**2
-        box_hi[6:nv] = 2.0 * (self.q_hi - q - qd * horizon) / horizon**2
+        box_lo[6:nv] = np.minimum(2.0 * (self.q_lo - q - qd * horizon) / horizon**2,
+                                  np.maximum(-qd, 0.0) / horizon)
+        box_hi[6:nv] = np.maximum(2.0 * (self.q_hi - q - qd * horizon) / horizon**2,
+                                  -np.maximum(qd, 0.0) / horizon)
         if not all(np.isfinite(a).all() for a in (hess, grad, a_eq, b_eq, c_in, lo, hi,
                                                   box_lo, box_hi)):
             return self.fallback(state, pts)
@@ -248,7 +256,8 @@ class ContactQP:
             qp.settings.initial_guess = _WARM_START
             x = np.asarray(qp.results.x)
             info = qp.results.info
-            self.solver_report = (f"{'relaxed' if relaxed else 'nominal'}: {info.status.name}, "
+            self.solver_report = (("" if not relaxed else self.solver_report + "; ")
+                                  + f"{'relaxed' if relaxed else 'nominal'}: {info.status.name}, "
                                   f"{info.iter} iterations, primal residual {info.pri_res:.2e}, "
                                   f"dual residual {info.dua_res:.2e}")
             if info.status != _SOLVED or not np.isfinite(x).all():
