@@ -27,8 +27,10 @@ are MuJoCo's (with the rotor armature), as in the standing QP; τ = M_a q̈ + h_
 A point of a sphere (hand, knee, elbow) is its lowest point at this instant, so the
 contact rows let it roll but not slide.
 
-Fallbacks (:attr:`ContactQpSolution.status`), as in the standing QP: ``"relaxed"`` —
-torque rows and joint-limit box dropped, torques clipped; ``"last_good"`` — the last
+Fallbacks (:attr:`ContactQpSolution.status`), as in the standing QP with one step more:
+``"limits_relaxed"`` — the joint-limit box dropped (a closed chain of hands, knees and
+toes can leave no motion inside it), torque rows kept; ``"relaxed"`` — torque rows and
+joint-limit box dropped, torques clipped; ``"last_good"`` — the last
 good torques; ``"damping"`` — τ = −K_D q̇. Torques are always finite and inside ±τ_max.
 """
 
@@ -121,7 +123,8 @@ class ContactQpSolution:
         forces: f_i on each point of :attr:`points`, world axes, shape (P, 3) [N]; zeros
             for fallbacks.
         points: The contact points of the tick.
-        status: ``"solved"``, ``"relaxed"``, ``"last_good"`` or ``"damping"``.
+        status: ``"solved"``, ``"limits_relaxed"``, ``"relaxed"``, ``"last_good"`` or
+            ``"damping"``.
         iterations: proxsuite iterations (0 for fallbacks).
     """
 
@@ -242,33 +245,33 @@ class ContactQP:
         if not all(np.isfinite(a).all() for a in (hess, grad, a_eq, b_eq, c_in, lo, hi,
                                                   box_lo, box_hi)):
             return self.fallback(state, pts)
-        for relaxed in (False, True):
-            key = (pts.names, relaxed)
+        free_rows = (np.full(nv - 6, -_BIG), np.full(nv - 6, _BIG))
+        levels = (("solved", (lo, hi, box_lo, box_hi)),
+                  ("limits_relaxed", (lo, hi, free_lo, free_hi)),
+                  ("relaxed", (*free_rows, free_lo, free_hi)))
+        reports = []
+        for status, bounds in levels:
+            key = (pts.names, status)
             fresh = key not in self._qps
             if fresh:
                 self._qps[key] = self._new_qp(n, len(b_eq))
             qp = self._qps[key]
-            args = (hess, grad, a_eq, b_eq, c_in,
-                    *((np.full(nv - 6, -_BIG), np.full(nv - 6, _BIG), free_lo, free_hi)
-                      if relaxed else (lo, hi, box_lo, box_hi)))
-            (qp.init if fresh else qp.update)(*args)
+            (qp.init if fresh else qp.update)(hess, grad, a_eq, b_eq, c_in, *bounds)
             qp.solve()
             qp.settings.initial_guess = _WARM_START
             x = np.asarray(qp.results.x)
             info = qp.results.info
-            self.solver_report = (("" if not relaxed else self.solver_report + "; ")
-                                  + f"{'relaxed' if relaxed else 'nominal'}: {info.status.name}, "
-                                  f"{info.iter} iterations, primal residual {info.pri_res:.2e}, "
-                                  f"dual residual {info.dua_res:.2e}")
+            reports.append(f"{status}: {info.status.name}, {info.iter} iterations, primal "
+                           f"residual {info.pri_res:.2e}, dual residual {info.dua_res:.2e}")
+            self.solver_report = "; ".join(reports)
             if info.status != _SOLVED or not np.isfinite(x).all():
                 del self._qps[key]  # a failed solve spoils the warm start
                 continue
             torque = np.clip(c_in @ x + h_a, -constants.EFFORT_LIMITS, constants.EFFORT_LIMITS)
             self.last_good = torque.copy()
             forces = x[nv:].reshape(npt, 4) @ self.basis.T
-            return ContactQpSolution(torque, x[:nv].copy(), forces, pts,
-                                     "relaxed" if relaxed else "solved",
-                                     int(qp.results.info.iter))
+            return ContactQpSolution(torque, x[:nv].copy(), forces, pts, status,
+                                     int(info.iter))
         return self.fallback(state, pts)
 
     def _new_qp(self, n: int, n_eq: int) -> proxsuite.proxqp.dense.QP:
