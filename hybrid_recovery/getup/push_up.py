@@ -15,8 +15,12 @@ every physics step) on the hands, knees and toes:
   (:func:`hybrid_recovery.getup.feasibility.static_feasibility`) on the same contacts,
   refreshed every ``force_update`` seconds.
 
-A named contact of the set takes part while its lowest point is within ``contact_band``
-of the floor.
+A named contact of the set bears load while MuJoCo reports it on the floor
+(:func:`hybrid_recovery.getup.contact_map.floor_contacts`). The move waits until both
+hands and both knees have landed (at most ``landing_timeout``): a noisy knee-chest often
+rests on one knee, the other a few millimetres up. Meanwhile, and whenever one of them
+is off the floor, a landing task lowers its lowest point p_z:
+p̈°_z = K_l (0 − p_z) − D_l ṗ_z.
 """
 
 from __future__ import annotations
@@ -29,7 +33,6 @@ import numpy as np
 from hybrid_recovery.control.wbc_qp import Task
 from hybrid_recovery.getup.contact_map import floor_contacts
 from hybrid_recovery.getup.contact_qp import ContactQP, ContactQpConfig, ContactQpSolution
-from hybrid_recovery.getup.contacts import FLOOR_CONTACTS, contact_points_world
 from hybrid_recovery.getup.feasibility import static_feasibility
 from hybrid_recovery.getup.ground_state import read_ground_pose
 from hybrid_recovery.getup.keyframes import KEYFRAMES
@@ -39,6 +42,9 @@ from hybrid_recovery.robot.limits import SafetyLimits
 HANDS_KNEES_TOES = ("left_hand", "right_hand", "left_knee", "right_knee", "left_toes",
                     "right_toes")
 """The push-up's contact set."""
+
+HANDS_KNEES = HANDS_KNEES_TOES[:4]
+"""The contacts that must have landed before the move starts."""
 
 _ALLOWED = {f"{side}_{part}" for side in ("left", "right")
             for part in ("hand", "knee", "shin", "toes", "heel", "foot")}
@@ -57,7 +63,10 @@ class PushUpConfig:
         kp_height: K_z [1/s²]. kd_height: D_z [1/s]. w_height: task weight.
         kd_pelvis: Pelvis angular velocity damping [1/s]. w_pelvis: its weight.
         force_update: Period of the reference-force refresh [s].
-        contact_band: A contact takes part within this height of the floor [m].
+        landing_timeout: The move waits at most this long for the hands and knees to
+            land [s].
+        kp_landing: K_l [1/s²]. kd_landing: D_l [1/s]. w_landing: weight of the landing
+            tasks.
         range_factor: Keyframe clamped to the joint ranges × this about their middle.
         qp: Settings of the QP.
     """
@@ -75,7 +84,10 @@ class PushUpConfig:
     kd_pelvis: float = 10.0
     w_pelvis: float = 1.0
     force_update: float = 0.05
-    contact_band: float = 0.01
+    landing_timeout: float = 1.5
+    kp_landing: float = 100.0
+    kd_landing: float = 20.0
+    w_landing: float = 10.0
     range_factor: float = 0.9
     qp: ContactQpConfig = field(default_factory=ContactQpConfig)
 
@@ -116,28 +128,23 @@ class PushUp:
         self._q1 = np.clip(KEYFRAMES[cfg.keyframe], lo, hi)
         self._z0 = float(data.xpos[self._pelvis, 2])
         self._t0 = float(data.time)
+        self._started: float | None = None
         self._next_forces = self._t0
         self._reference: dict[str, np.ndarray] = {}
         self.statuses: dict[str, int] = {}
         self.worst_ratio = 0.0
         self.last: ContactQpSolution | None = None
 
-    def active(self) -> tuple[str, ...]:
-        """Contacts of the set whose lowest point is within the band (after a read)."""
-        m, d = self.qp.model, self.qp.reader.data
-        out = []
-        for name in self.config.contacts:
-            contact = FLOOR_CONTACTS[name]
-            body = m.body(contact.body).id
-            low = contact_points_world(contact, d.xpos[body], d.xmat[body].reshape(3, 3))
-            if low[:, 2].min() <= self.config.contact_band:
-                out.append(name)
-        return tuple(out)
+    def start_time(self) -> float | None:
+        """When the move started, after the landing [s]; None while landing."""
+        return self._started
 
-    def tasks(self, data: mujoco.MjData, time: float) -> list[Task]:
-        """The posture, pelvis-height and pelvis-damping tasks at ``time`` [s]."""
+    def tasks(self, data: mujoco.MjData, missing: tuple[str, ...]) -> list[Task]:
+        """The posture, pelvis-height, pelvis-damping and landing tasks of ``data``'s
+        time, ``missing`` the hands and knees off the floor."""
         cfg, nv = self.config, self.qp.nv
-        s, ds, dds = _smoothstep((time - self._t0) / cfg.duration)
+        elapsed = -1.0 if self._started is None else float(data.time) - self._started
+        s, ds, dds = _smoothstep(elapsed / cfg.duration)
         rate, curv = ds / cfg.duration, dds / cfg.duration**2
         delta = self._q1 - self._q0
         q, qd = data.qpos[self._qadr], data.qvel[6:]
@@ -154,9 +161,16 @@ class PushUp:
                   + cfg.kd_height * (rate * dz - zd) - float(jdot[2] @ d.qvel))
         state = self._state
         damping = -cfg.kd_pelvis * state.pelvis_angvel - state.pelvis_bias_acc
-        return [Task("posture", posture, target, cfg.w_posture),
-                Task("pelvis_height", jac[2:3], np.array([height]), cfg.w_height),
-                Task("pelvis_damping", state.pelvis_jacobian, damping, cfg.w_pelvis)]
+        tasks = [Task("posture", posture, target, cfg.w_posture),
+                 Task("pelvis_height", jac[2:3], np.array([height]), cfg.w_height),
+                 Task("pelvis_damping", state.pelvis_jacobian, damping, cfg.w_pelvis)]
+        if missing:
+            low = self.qp.points(missing)
+            vz = low.jacobians[:, 2] @ d.qvel
+            tasks.append(Task("landing", low.jacobians[:, 2],
+                              -cfg.kp_landing * low.positions[:, 2] - cfg.kd_landing * vz
+                              - low.bias_acc[:, 2], cfg.w_landing))
+        return tasks
 
     def _reference_forces(self, data: mujoco.MjData, active: tuple[str, ...],
                           names: tuple[str, ...]) -> np.ndarray | None:
@@ -182,12 +196,19 @@ class PushUp:
 
     def __call__(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
         """τ (27,) [N·m], motor order, for ``data``'s state."""
+        cfg = self.config
         self._state = self.qp.read(data)
-        active = self.active() or self.config.contacts[:1]
+        touching = set(floor_contacts(model, data)[0])
+        active = tuple(c for c in cfg.contacts if c in touching) or cfg.contacts[:1]
+        missing = tuple(c for c in HANDS_KNEES if c in cfg.contacts and c not in touching)
+        if self._started is None and (not missing or data.time - self._t0
+                                      >= cfg.landing_timeout - 1e-9):
+            self._started = float(data.time)
+            self._q0 = data.qpos[self._qadr].copy()
+            self._z0 = float(data.xpos[self._pelvis, 2])
         names = self.qp.points(active).names
         reference = self._reference_forces(data, active, names)
-        solution = self.qp.solve(self._state, active, self.tasks(data, float(data.time)),
-                                 reference)
+        solution = self.qp.solve(self._state, active, self.tasks(data, missing), reference)
         self.last = solution
         self.statuses[solution.status] = self.statuses.get(solution.status, 0) + 1
         ratio = float(np.max(np.abs(solution.torque) / constants.EFFORT_LIMITS))
