@@ -11,9 +11,11 @@ from hybrid_recovery.control.torque_model import load_torque_model
 from hybrid_recovery.control.wbc_qp import Task
 from hybrid_recovery.dynamics.conventions import qacc_to_pin, qpos_to_pin, qvel_to_pin
 from hybrid_recovery.dynamics.robot_model import GRAVITY
+from hybrid_recovery.evaluation.handover_map import handover_start
 from hybrid_recovery.getup.contact_ik import CONTACT_KEYFRAMES, ContactIk
 from hybrid_recovery.getup.contact_qp import ContactQP, ContactQpConfig
-from hybrid_recovery.getup.push_up import HANDS_KNEES_TOES, PushUpConfig
+from hybrid_recovery.getup.contacts import FLOOR_CONTACTS
+from hybrid_recovery.getup.push_up import HANDS_KNEES_TOES, PushUp, PushUpConfig, on_hands_and_knees
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.mjcf import load_mjmodel
 
@@ -89,8 +91,6 @@ def test_torques_reproduce_pinocchio_inverse_dynamics(model, hands_knees, seed):
     pin.updateFramePlacements(pm, pd)
     contact_force = np.zeros(model.nv)
     for name, p, f in zip(sol.points.names, sol.points.positions, sol.forces, strict=True):
-        from hybrid_recovery.getup.contacts import FLOOR_CONTACTS
-
         frame = pm.getFrameId(FLOOR_CONTACTS[name].body, pin.FrameType.BODY)
         jac = pin.getFrameJacobian(pm, pd, frame, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
         r = p - pd.oMf[frame].translation
@@ -138,3 +138,21 @@ def test_messages(model, hands_knees):
         ContactQpConfig(friction=0.0)
     with pytest.raises(ValueError, match="^unknown keyframe 'squat': use one of"):
         PushUpConfig(keyframe="squat")
+
+
+def test_push_up_from_knee_chest_ends_on_hands_and_knees(model):
+    """The torque-level push-up (2 ms, ctrl = τ) from a noisy settled knee-chest."""
+    data = handover_start(model, "knee_chest", np.random.default_rng(2))
+    mujoco.mj_forward(model, data)
+    assert not on_hands_and_knees(model, data)[0]  # the criterion is not met at the start
+    controller = PushUp()
+    controller.reset(model, data)
+    cfg = controller.config
+    for _ in range(int(round((cfg.duration + 1.0) / model.opt.timestep))):
+        tau = controller(model, data)
+        assert np.isfinite(tau).all() and np.all(np.abs(tau) <= constants.EFFORT_LIMITS)
+        data.ctrl[:] = tau
+        mujoco.mj_step(model, data)
+    mujoco.mj_forward(model, data)
+    arrived, what = on_hands_and_knees(model, data)
+    assert arrived, what
