@@ -32,8 +32,9 @@ class GetupConfig:
         ground_com_height: Below this CoM height a robot the QP does not apply to is on
             the ground and starts with the moves [m] (kneeling and squatting starts, with
             the CoM near 0.55 m, go to the policy at once).
-        relapse_time: Lying this long in a state a move starts from, under the policy,
-            starts the moves again [s].
+        relapse_time: The CoM below ``ground_com_height`` this long without a break, under
+            the policy, starts the moves again from the ground state the robot is in [s]
+            (a rise from knee-chest passes 0.45 m within ~2 s of the hand-over).
         max_relapses: Most such restarts per episode.
     """
 
