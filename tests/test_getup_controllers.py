@@ -11,7 +11,7 @@ from hybrid_recovery.control.supervisor import POLICY
 from hybrid_recovery.evaluation.controllers import make_controller
 from hybrid_recovery.evaluation.scenario import Scenario
 from hybrid_recovery.evaluation.trial import eval_model, run_trial, start_state
-from hybrid_recovery.getup.controllers import com_height
+from hybrid_recovery.getup.controllers import GetupConfig, com_height, lying_still
 from hybrid_recovery.policy import is_shipped
 from hybrid_recovery.robot import constants
 from hybrid_recovery.sim.initial_states import seat_single
@@ -52,6 +52,34 @@ def test_hybrid_rises_from_prone_through_knee_chest():
     assert message.startswith("start: the policy stands first (QP not applicable")
 
 
+def _settled(pose: str) -> tuple[mujoco.MjModel, mujoco.MjData]:
+    model = eval_model(None, 0.005, False, "default")
+    data = mujoco.MjData(model)
+    data.qpos[:] = start_state(Scenario(pose, seed=0), None, "default")
+    seat_single(model, data)
+    data.qvel[:] = 0.0
+    mujoco.mj_forward(model, data)
+    return model, data
+
+
+def test_lying_still_needs_a_low_com_still_joints_and_a_still_base():
+    config = GetupConfig()
+    model, data = _settled("prone")
+    assert com_height(model, data) < config.ground_com_height
+    assert lying_still(model, data, config)
+    knee = model.joint("left_knee_joint").dofadr[0]
+    data.qvel[knee] = 0.99 * config.still_joint_speed
+    assert lying_still(model, data, config)
+    data.qvel[knee] = -1.01 * config.still_joint_speed  # a policy still trying
+    assert not lying_still(model, data, config)
+    data.qvel[:] = 0.0
+    data.qvel[1] = 1.01 * config.still_base_speed  # sliding or rolling
+    assert not lying_still(model, data, config)
+    model, data = _settled("standing")
+    assert com_height(model, data) > config.ground_com_height
+    assert not lying_still(model, data, config)
+
+
 class _GaveUp:
     """Stands in for the supervised policy: holds the joints where they are at its reset,
     as a policy that has given up does (the relapse test sees only the CoM and the mode)."""
@@ -73,7 +101,7 @@ class _GaveUp:
 
 @pytest.mark.skipif(not is_shipped(), reason="no shipped policy")
 def test_the_relapse_fires_from_a_ground_state_no_move_starts_from():
-    """A robot that stays down in knee-chest under the policy gets the moves again (they
+    """A robot lying still in knee-chest under the policy gets the moves again (they
     arrive at once and hand over a second time); before, only states a move starts from
     (sitting, supine, prone, side) counted as lying."""
     controller = make_controller("hybrid")
