@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
+
 from hybrid_recovery.envs.config import DomainRandConfig
 from hybrid_recovery.robot import constants
 from hybrid_recovery.sim.backend import PhysicsBatch

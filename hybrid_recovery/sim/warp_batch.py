@@ -29,10 +29,9 @@ from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 
 import mujoco
+import mujoco_warp as mjw
 import numpy as np
 import warp as wp
-
-import mujoco_warp as mjw
 
 DERIVED_FIELDS = ("body_subtreemass", "body_invweight0", "dof_invweight0", "actuator_acc0")
 """Model fields ``set_const`` derives from mass, inertia and armature: per world as soon
