@@ -87,6 +87,7 @@ def test_env_bench_reports_rates_and_split():
                            overrides={"physics_dt": 0.01, "decimation": 2})
     figures = json.loads(result.json_line())
     assert figures["bench"] == "env" and figures["num_envs"] == 4
+    assert figures["backend"] == "batch" and figures["device"] == "cpu"
     assert figures["physics_dt"] == 0.01
     assert figures["env_steps_per_s"] > 0 and figures["physics_steps_per_s"] > 0
     assert set(figures["ms_per_step"]) == {"physics", "state_and_hulls", "observations",
@@ -136,8 +137,9 @@ def test_train_bench_reports_split_and_physics_rate(train_bench):
                                                "policy_inference_and_storage", "ppo_update"}
     settings = dict(figures["settings"])
     assert settings.pop("omp_wait_policy") in (None, "PASSIVE", "ACTIVE")  # as the env has it
-    assert settings == {"threads": 1, "torch_threads": 1, "mixed_precision": False,
-                        "num_learning_epochs": 5, "num_mini_batches": 4, "symmetry": False}
+    assert settings == {"backend": "batch", "device": "cpu", "threads": 1, "torch_threads": 1,
+                        "mixed_precision": False, "num_learning_epochs": 5,
+                        "num_mini_batches": 4, "symmetry": False}
 
 
 def test_train_bench_splits_the_update(train_bench):

@@ -26,6 +26,8 @@ cached under ``~/.cache/warp``); run with ``-m warp`` or ``-m "not warp"`` to ch
 
 from __future__ import annotations
 
+import json
+
 import mujoco
 import numpy as np
 import pytest
@@ -33,6 +35,7 @@ import torch
 
 pytest.importorskip("mujoco_warp", reason="MuJoCo Warp not installed (the 'warp' extra)")
 
+from hybrid_recovery.bench import run_env_bench  # noqa: E402
 from hybrid_recovery.envs import RecoveryEnv, default_config  # noqa: E402
 from hybrid_recovery.envs import recovery_env as recovery_env_module  # noqa: E402
 from hybrid_recovery.envs.rewards import compute_rewards  # noqa: E402
@@ -226,3 +229,15 @@ def _box_corner_heights(pitch: float, z: float) -> np.ndarray:
     c, s = np.cos(pitch), np.sin(pitch)
     rot = np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
     return z + (signs * half) @ rot[2]
+
+
+def test_env_bench_prints_the_same_json_on_both_backends():
+    """``bench env --backend warp``: the same figures, the physics-only rate replayed on
+    Warp's worlds."""
+    lines = {backend: json.loads(run_env_bench(n=2, repeat=1, steps=3, threads=1,
+                                               backend=backend).json_line())
+             for backend in ("batch", "warp")}
+    assert set(lines["warp"]) == set(lines["batch"])
+    assert set(lines["warp"]["ms_per_step"]) == set(lines["batch"]["ms_per_step"])
+    assert lines["warp"]["backend"] == "warp" and lines["warp"]["device"] == "cpu"
+    assert lines["warp"]["physics_steps_per_s"] > 0 and lines["warp"]["env_steps_per_s"] > 0
