@@ -9,7 +9,7 @@ full difficulty (curriculum off: every start pose, full domain randomisation, pu
 distances 5e-7 m, contact points 4e-7 m, contact forces 0.011 N. The tolerances below
 are 4–50× those: float32 against float64, and Warp's solver tolerance (≥ 1e-6).
 
-What it takes to agree (measured, see ``training/README.md``, "Physics backends"):
+What it takes to agree (measured, see ``docs/backends.md``):
 
 * the constraint solver run to convergence on both (``opt.iterations`` 100 here). The
   model caps Newton at 10 iterations; in the few contact states where that cap is met the
