@@ -241,3 +241,17 @@ def test_env_bench_prints_the_same_json_on_both_backends():
     assert set(lines["warp"]["ms_per_step"]) == set(lines["batch"]["ms_per_step"])
     assert lines["warp"]["backend"] == "warp" and lines["warp"]["device"] == "cpu"
     assert lines["warp"]["physics_steps_per_s"] > 0 and lines["warp"]["env_steps_per_s"] > 0
+
+
+def test_train_bench_prints_the_same_json_on_both_backends():
+    """``bench train --backend warp``: PPO iterations on Warp's worlds, the same figures."""
+    from hybrid_recovery.bench import run_train_bench
+
+    lines = {backend: json.loads(run_train_bench(n=4, repeat=1, threads=1, backend=backend,
+                                                 overrides={"ppo.num_learning_epochs": 1})
+                                 .json_line())
+             for backend in ("batch", "warp")}
+    assert set(lines["warp"]) == set(lines["batch"])
+    assert set(lines["warp"]["s_per_iteration"]) == set(lines["batch"]["s_per_iteration"])
+    assert lines["warp"]["settings"]["backend"] == "warp"
+    assert lines["warp"]["env_steps_per_s"] > 0
