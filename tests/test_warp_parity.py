@@ -255,3 +255,15 @@ def test_train_bench_prints_the_same_json_on_both_backends():
     assert set(lines["warp"]["s_per_iteration"]) == set(lines["batch"]["s_per_iteration"])
     assert lines["warp"]["settings"]["backend"] == "warp"
     assert lines["warp"]["env_steps_per_s"] > 0
+
+
+def test_cuda_without_a_gpu_is_refused_by_name():
+    import warp as wp
+
+    from hybrid_recovery.sim.backend import check_backend
+
+    if wp.get_cuda_device_count() > 0:
+        pytest.skip("a CUDA GPU is present")
+    with pytest.raises(ValueError) as err:
+        check_backend("warp", "cuda")
+    assert str(err.value) == "device 'cuda' needs a CUDA GPU, and Warp finds none"
