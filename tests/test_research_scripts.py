@@ -5,6 +5,7 @@ the motion figures equal to those computed from what that actor saw."""
 from __future__ import annotations
 
 import importlib.util
+import json
 import sys
 from pathlib import Path
 from types import ModuleType
@@ -159,3 +160,44 @@ def test_assisted_pose_probe_pulls_at_each_fraction_and_never_anneals(run, monke
         module.probe(run, "lotus", [0.0], EPISODES, 3)
     with pytest.raises(ValueError, match="fractions"):
         module.probe(run, "kneeling", [1.0], EPISODES, 3)
+
+
+def test_the_side_sit_probe_chain_holds_every_keyframe_statically():
+    from hybrid_recovery.control.torque_model import load_torque_model
+    from hybrid_recovery.dynamics import RobotModel
+    from hybrid_recovery.getup.feasibility import static_feasibility
+
+    probe = _script("probe_side_sit")
+    model = load_torque_model()
+    robot = RobotModel(model)
+    chain = probe.side_sit_chain(model)
+    assert [name for name, _, _ in chain][::5] == ["a0.1", "a0.6", "b0.25"]
+    lo, hi = model.jnt_range[1:, 0], model.jnt_range[1:, 1]
+    mid, half = (lo + hi) / 2, (hi - lo) / 2
+    for name, qpos, contacts in chain:
+        check = static_feasibility(robot, qpos, contacts)  # refuses a contact 3 cm up
+        assert check.feasible and check.worst_ratio < 0.5, (name, check.reason)
+        assert np.all(np.abs(qpos[7:] - mid) <= 0.9 * half + 1e-9), name
+
+
+def test_ab_update_trains_each_setting_once_and_draws(tmp_path, monkeypatch, capsys):
+    """Each (setting, seed) is a run with that setting's PPO update; a finished run is
+    kept, not trained again; the table has one row per setting."""
+    module = _script("ab_update")
+    argv = ["ab_update.py", "--root", str(tmp_path / "ab"), "--seeds", "3", "--iterations",
+            "1", "--num-envs", "8", "--threads", "1", "--variant", "full",
+            "--settings", "5 epochs, fp32", "2 epochs, fp32", "--out", str(tmp_path / "ab.png")]
+    monkeypatch.setattr(sys, "argv", argv)
+    module.main()
+    runs = {label: module.run_dir(tmp_path / "ab", label, 3)
+            for label in ("5 epochs, fp32", "2 epochs, fp32")}
+    for label, run_dir in runs.items():
+        saved = json.loads((run_dir / "config.json").read_text())["train_config"]
+        assert saved["ppo"]["num_learning_epochs"] == module.SETTINGS[label]["num_learning_epochs"]
+        assert saved["seed"] == 3
+    stamps = {label: (d / "latest.pt").stat().st_mtime_ns for label, d in runs.items()}
+    module.main()
+    assert {label: (d / "latest.pt").stat().st_mtime_ns for label, d in runs.items()} == stamps
+    table = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| ")]
+    assert [row.split(" | ")[0] for row in table[-2:]] == ["| 5 epochs, fp32", "| 2 epochs, fp32"]
+    assert (tmp_path / "ab.png").stat().st_size > 0

@@ -1,4 +1,4 @@
-"""``hybrid-recovery getup record`` and ``hybrid-recovery getup map``."""
+"""``hybrid-recovery getup record``, ``getup map`` and ``getup margins``."""
 
 from __future__ import annotations
 
@@ -37,6 +37,23 @@ def _map(args: argparse.Namespace) -> int:
     return 0
 
 
+def _margins(args: argparse.Namespace) -> int:
+    from hybrid_recovery.evaluation.move_margins import (
+        margin_table,
+        move_margins,
+        plot_margins,
+        write_csv,
+    )
+
+    results = move_margins(None if args.move is None else [args.move], seeds=args.seed)
+    print(margin_table(results))
+    if args.out:
+        print(f"states: {write_csv(results, args.out)}")
+    if args.plot:
+        print(f"plot: {plot_margins(results, args.plot)}")
+    return 0
+
+
 def _configure(p: argparse.ArgumentParser) -> None:
     from hybrid_recovery.evaluation.handover_map import HANDOVER_STATES
     from hybrid_recovery.sim.initial_states import POSES
@@ -60,7 +77,15 @@ def _configure(p: argparse.ArgumentParser) -> None:
     hmap.add_argument("--policy", default="shipped", help="policy.onnx or its directory")
     hmap.add_argument("--out", default=None, help="JSON file for the rows")
     hmap.set_defaults(_getup=_map)
+    marg = sub.add_parser("margins", help="the static margin table along each move")
+    marg.add_argument("--move", default=None, help="one move (default: every move)")
+    marg.add_argument("--seed", type=int, nargs="+", default=[0],
+                      help="seeds of the noisy starts (the table pools them)")
+    marg.add_argument("--out", default=None, help="CSV file for every checked state")
+    marg.add_argument("--plot", default=None, help="PNG: margin against time per move")
+    marg.set_defaults(_getup=_margins)
 
 
 _getup.configure = _configure  # type: ignore[attr-defined]
-command("getup", "Getting up: record hybrid rises, map the policy's hand-over states.")(_getup)
+command("getup", "Getting up: record hybrid rises, map the policy's hand-over states, "
+        "check static margins along the moves.")(_getup)

@@ -2,9 +2,12 @@
 
 A floor contact is a set of points fixed on one body. Point contacts of a round part
 (knee, hand ball, elbow, head, hip) are sphere centres c with a radius r: the contact
-lies r below the centre, p = o + R c − r ẑ. Flat parts (soles, pelvis, back) are their
-box corners with r = 0. In a configuration, a contact's *active* points are those within
-``ACTIVE_BAND`` of its lowest point (a flat sole: four corners; a tipped sole: an edge).
+lies r below the centre, p = o + R c − r ẑ. A capsule (thigh, shin, shoulder, upper arm,
+forearm, the hip motors under the pelvis) is its two axis end points with its radius: a
+line contact when it lies flat, its lower end when tipped. Flat parts (soles, pelvis,
+back) are their box corners with r = 0. In a configuration, a contact's *active* points
+are those within ``ACTIVE_BAND`` of its lowest point (a flat sole: four corners; a tipped
+sole: an edge).
 
 Geometry values are the project's collision primitives (``models/h1_2/h1_2.xml``) [m],
 in each body's frame.
@@ -55,6 +58,15 @@ _LEFT = (
     FloorContact("left_hip", "left_hip_pitch_link", ((0.0, 0.0, 0.0),), 0.065),
     FloorContact("left_elbow", "left_elbow_link", ((0.0, -0.0329, 0.0),), 0.045),
     FloorContact("left_hand", "left_wrist_yaw_link", ((0.025, 0.0, 0.0),), 0.045),
+    FloorContact("left_thigh", "left_hip_roll_link", ((0.005, 0.0, -0.07), (0.01, 0.0, -0.33)),
+                 0.055),
+    FloorContact("left_shin", "left_knee_link", ((0.003, 0.0, -0.07), (0.0, 0.0, -0.3)), 0.045),
+    FloorContact("left_shoulder", "left_shoulder_pitch_link", ((0.0, 0.0, 0.0), (0.0, 0.062, 0.0)),
+                 0.045),
+    FloorContact("left_upper_arm", "left_shoulder_yaw_link",
+                 ((0.003, 0.0, 0.09), (0.006, 0.0, -0.16)), 0.045),
+    FloorContact("left_forearm", "left_wrist_roll_link", ((-0.08, 0.0, 0.0), (0.09, 0.0, 0.0)),
+                 0.035),
 )
 
 FLOOR_CONTACTS: dict[str, FloorContact] = {
@@ -62,6 +74,7 @@ FLOOR_CONTACTS: dict[str, FloorContact] = {
         *_LEFT, *(_mirror(c) for c in _LEFT),
         FloorContact("pelvis", "pelvis",
                      tuple((x, y, -0.085) for x in (0.07, -0.07) for y in (0.15, -0.15))),
+        FloorContact("hip_motors", "pelvis", ((0.0, 0.1, -0.15), (0.0, -0.1, -0.15)), 0.06),
         FloorContact("back", "torso_link",
                      tuple((-0.073, y, z) for y in (0.11, -0.11) for z in (0.0, 0.475))),
         FloorContact("chest", "torso_link",

@@ -20,11 +20,16 @@ from dataclasses import dataclass
 
 @dataclass(frozen=True)
 class Phase:
-    """Targets move to ``keyframe`` over ``duration`` [s], then stay for ``hold`` [s]."""
+    """Targets move to ``keyframe`` over ``duration`` [s], then stay for ``hold`` [s].
+
+    ``dynamic``: the phase is not meant to be statically balanced (the roll's fall onto
+    its side); the static check along the move reports it as such.
+    """
 
     keyframe: str
     duration: float
     hold: float
+    dynamic: bool = False
 
 
 @dataclass(frozen=True)
@@ -39,13 +44,18 @@ class Move:
 
 MOVES: dict[str, Move] = {m.name: m for m in (
     Move("lie_back", "sitting", "supine", (Phase("supine_rest", 1.5, 1.0),)),
-    Move("roll", "supine", "prone", (Phase("tuck", 1.0, 0.2), Phase("roll_twist", 0.8, 0.5),
-                                     Phase("roll_unwind", 0.8, 0.5),
+    Move("roll", "supine", "prone", (Phase("tuck", 1.0, 0.2),
+                                     Phase("roll_twist", 0.8, 0.5, dynamic=True),
+                                     Phase("roll_unwind", 0.8, 0.5, dynamic=True),
                                      Phase("prone_hands", 1.0, 1.0))),
     Move("to_front", "side", "prone", (Phase("prone_hands", 1.0, 1.0),)),
     Move("tuck", "prone", "knee_chest", (Phase("knee_chest", 5.0, 1.0),)),
 )}
-"""Every move by name."""
+"""The executor's moves by name."""
 
 NEXT_MOVE: dict[str, str] = {m.start: m.name for m in MOVES.values()}
 """The move that leads on from each ground state towards knee-chest."""
+
+ALL_MOVES: dict[str, Move] = dict(MOVES)
+"""Every move by name: the executor's and those it does not plan (run one with
+:class:`hybrid_recovery.getup.single_move.SingleMove`)."""
