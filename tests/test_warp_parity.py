@@ -267,3 +267,21 @@ def test_cuda_without_a_gpu_is_refused_by_name():
     with pytest.raises(ValueError) as err:
         check_backend("warp", "cuda")
     assert str(err.value) == "device 'cuda' needs a CUDA GPU, and Warp finds none"
+
+
+def test_warp_batch_refuses_what_it_cannot_do_by_name():
+    model, _ = build_scene()
+    with pytest.raises(ValueError) as err:
+        WarpBatch(model, 0)
+    assert str(err.value) == "WarpBatch needs nsim >= 1, got 0"
+    sims = WarpBatch(model, 2, "cpu", expand=("body_mass",))
+    with pytest.raises(ValueError) as err:
+        sims.expand("geom_friction")
+    assert str(err.value) == ("model field 'geom_friction' was not expanded: give it in "
+                              "WarpBatch(expand=...) (expanded: ['body_mass'])")
+    with pytest.raises(KeyError) as err:
+        sims.bind("qpos_typo")
+    assert err.value.args[0] == "MuJoCo Warp data has no field 'qpos_typo'"
+    with pytest.raises(ValueError) as err:
+        sims.step([1])
+    assert str(err.value) == "WarpBatch steps every world: ids must be None or all worlds"
