@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import json
 
 import numpy as np
@@ -94,14 +95,20 @@ def test_env_bench_reports_rates_and_split():
                                            "resets", "rewards_terminations_other"}
 
 
-def test_physics_replay_is_the_env_runs_physics():
+_WARP = pytest.mark.skipif(importlib.util.find_spec("mujoco_warp") is None,
+                           reason="MuJoCo Warp not installed (the 'warp' extra)")
+
+
+@pytest.mark.parametrize("backend", ["batch", pytest.param("warp", marks=[pytest.mark.warp,
+                                                                         _WARP])])
+def test_physics_replay_is_the_env_runs_physics(backend):
     """Without resets, replaying the recorded controls and pushes from the start state
     ends in the env run's own state, bit for bit; and the env carries on from there."""
     from hybrid_recovery.bench.physics_replay import PhysicsReplay
     from hybrid_recovery.envs import RecoveryEnv, default_config
 
     cfg = default_config()
-    cfg.num_envs, cfg.num_threads, cfg.seed = 4, 1, 3
+    cfg.num_envs, cfg.num_threads, cfg.seed, cfg.backend = 4, 1, 3, backend
     env = RecoveryEnv(cfg)
     replay = PhysicsReplay(env)
     with pytest.raises(RuntimeError, match=r"^PhysicsReplay.replay\(\) needs start\(\) first$"):
