@@ -35,7 +35,7 @@ TAGS: tuple[tuple[str, str], ...] = (
     ("Train/mean_reward", "mean episode reward"),
     ("episode/stood_up", "stood up"),
     ("Train/mean_episode_length", "mean episode length [steps]"),
-    ("Perf/learning_time", "update [s per iteration]"),
+    ("Policy/mean_std", "action noise std"),
 )
 
 
