@@ -49,3 +49,20 @@ def test_only_rank_zero_writes_and_ranks_draw_different_episodes(tmp_path):
     assert "config.json" in written and "latest.pt" in written
     assert runs[0].env.cfg.seed == 5 and runs[1].env.cfg.seed == 6
     assert not np.array_equal(runs[0].env.qpos, runs[1].env.qpos)
+
+
+def test_a_resume_runs_where_it_is_told_and_learns_what_it_learnt(tmp_path):
+    """Backend and device are where a run runs (taken from the resume's options); what it
+    learns (here the seed and the network) stays the run's own."""
+    import dataclasses
+    import json
+
+    from hybrid_recovery.training.runner import _resumed_config
+
+    saved = TrainConfig(num_envs=8, seed=5, hidden_dims=(32, 32))
+    (tmp_path / "config.json").write_text(json.dumps(
+        {"train_config": dataclasses.asdict(saved)}))
+    now = TrainConfig(num_envs=8, seed=9, backend="warp", device="cuda")
+    resumed = _resumed_config(tmp_path, now, given={"backend", "device", "seed"})
+    assert (resumed.backend, resumed.device) == ("warp", "cuda")
+    assert resumed.seed == 5 and resumed.hidden_dims == (32, 32)
