@@ -2,12 +2,19 @@
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
+import mujoco
 import pytest
 
+from hybrid_recovery.control.supervisor import POLICY
 from hybrid_recovery.evaluation.controllers import make_controller
 from hybrid_recovery.evaluation.scenario import Scenario
-from hybrid_recovery.evaluation.trial import run_trial
+from hybrid_recovery.evaluation.trial import eval_model, run_trial, start_state
+from hybrid_recovery.getup.controllers import GetupConfig, com_height, lying_still
 from hybrid_recovery.policy import is_shipped
+from hybrid_recovery.robot import constants
+from hybrid_recovery.sim.initial_states import seat_single
 
 
 def test_model_controller_moves_to_knee_chest_and_stops_there():
@@ -43,3 +50,81 @@ def test_hybrid_rises_from_prone_through_knee_chest():
     time, kind, message = info["switches"][0]
     assert kind == "to_policy" and time == pytest.approx(handover_time, abs=0.01)
     assert message.startswith("start: the policy stands first (QP not applicable")
+
+
+def _settled(pose: str) -> tuple[mujoco.MjModel, mujoco.MjData]:
+    model = eval_model(None, 0.005, False, "default")
+    data = mujoco.MjData(model)
+    data.qpos[:] = start_state(Scenario(pose, seed=0), None, "default")
+    seat_single(model, data)
+    data.qvel[:] = 0.0
+    mujoco.mj_forward(model, data)
+    return model, data
+
+
+def test_lying_still_needs_a_low_com_still_joints_and_a_still_base():
+    config = GetupConfig()
+    model, data = _settled("prone")
+    assert com_height(model, data) < config.ground_com_height
+    assert lying_still(model, data, config)
+    knee = model.joint("left_knee_joint").dofadr[0]
+    data.qvel[knee] = 0.99 * config.still_joint_speed
+    assert lying_still(model, data, config)
+    data.qvel[knee] = -1.01 * config.still_joint_speed  # a policy still trying
+    assert not lying_still(model, data, config)
+    data.qvel[:] = 0.0
+    data.qvel[1] = 1.01 * config.still_base_speed  # sliding or rolling
+    assert not lying_still(model, data, config)
+    model, data = _settled("standing")
+    assert com_height(model, data) > config.ground_com_height
+    assert not lying_still(model, data, config)
+
+
+class _GaveUp:
+    """Stands in for the supervised policy: holds the joints where they are at its reset,
+    as a policy that has given up does (the relapse test sees only the CoM and the mode)."""
+
+    def __init__(self) -> None:
+        self.supervisor = SimpleNamespace(mode=POLICY)
+        self.resets: list[float] = []
+
+    def reset(self, model, data) -> None:
+        self.resets.append(round(float(data.time), 3))
+        self.q_ref = data.qpos[model.jnt_qposadr[1:1 + constants.NUM_JOINTS]].copy()
+
+    def __call__(self, model, data):
+        return self.q_ref
+
+    def info(self) -> dict:
+        return {"final_mode": POLICY}
+
+
+@pytest.mark.skipif(not is_shipped(), reason="no shipped policy")
+def test_the_relapse_fires_from_a_ground_state_no_move_starts_from():
+    """A robot lying still in knee-chest under the policy gets the moves again (they
+    arrive at once and hand over a second time); before, only states a move starts from
+    (sitting, supine, prone, side) counted as lying."""
+    controller = make_controller("hybrid")
+    controller.supervised = stand_in = _GaveUp()
+    config = controller.config
+    model = eval_model(None, controller.physics_dt, False, "default")
+    data = mujoco.MjData(model)
+    data.qpos[:] = start_state(Scenario("prone", seed=0), None, "default")
+    seat_single(model, data)
+    mujoco.mj_forward(model, data)
+    controller.reset(model, data)
+    while not controller.handovers:
+        data.ctrl[:] = controller(model, data)
+        mujoco.mj_step(model, data)
+    first = data.time
+    assert controller.handovers[0][1] == "knee_chest"
+    while data.time < first + config.relapse_time + 1.0:
+        data.ctrl[:] = controller(model, data)
+        mujoco.mj_step(model, data)
+    assert com_height(model, data) < config.ground_com_height
+    assert controller.relapses == 1
+    (t1, s1), (t2, s2) = controller.handovers
+    assert s1 == s2 == "knee_chest"
+    # relapse after relapse_time under the policy, then the moves' settle, then arrived
+    assert t2 == pytest.approx(t1 + config.relapse_time + config.moves.settle_time, abs=0.011)
+    assert stand_in.resets[1:] == [t1, t2]

@@ -89,6 +89,11 @@ def test_a_retried_roll_runs_mirrored(model):
     (-0.9, 0.0, -0.4, 0.4, 0.3, {"left_knee_link", "right_knee_link"}, "knee_chest"),
     (-0.9, 0.0, -0.4, 0.4, 0.3, {"left_knee_link"}, "other"),
     (0.3, 0.0, 0.9, 0.15, 0.4, {"pelvis"}, "sitting"),
+    # sitting upright on the hip-pitch links, the pelvis clear (where a failed rise from
+    # knee-chest ends under the policy): sitting, not "other"
+    (0.04, 0.09, 0.99, 0.23, 0.34, {"left_hip_pitch_link", "right_hip_pitch_link",
+                                    "left_ankle_roll_link"}, "sitting"),
+    (0.3, 0.67, 0.68, 0.2, 0.34, {"left_hip_pitch_link", "right_elbow_link"}, "sitting"),
     (0.0, 0.9, 0.1, 0.15, 0.2, {"torso_link"}, "side"),
     (0.1, 0.0, 0.95, 0.6, 0.55, {"left_knee_link", "right_knee_link"}, "other"),
 ])

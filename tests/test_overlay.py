@@ -62,3 +62,11 @@ def test_overlay_figures_one_per_panel(tmp_path):
                      "overlay_E_direction.png", "overlay_F_height.png"]
     sizes = np.array([(tmp_path / n).stat().st_size for n in names])
     assert np.all(sizes > 5_000) and np.all(sizes < 150_000)
+
+
+def test_overlay_figures_without_pushes_draw_no_empty_panels(tmp_path):
+    """The poses protocol has no pushes: panels of pushes (E, F) are not drawn empty."""
+    results = {"model": _rows({(0.0, "front"): (1, 3)}), "hybrid": _rows({(0.0, "front"): (3, 3)})}
+    names = [name for _, name in overlay_figures(results, tmp_path)]
+    assert names == ["overlay_A_no_push.png", "overlay_BC_force.png", "overlay_D_time.png"]
+    assert sorted(p.name for p in tmp_path.glob("*.png")) == sorted(names)

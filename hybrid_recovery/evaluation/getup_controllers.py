@@ -4,10 +4,11 @@ On the ground (the QP does not apply, CoM below ``GetupConfig.ground_com_height`
 contact-state moves (:class:`hybrid_recovery.getup.move_executor.GroundMoves`) bring the
 robot to the hand-over state, knee-chest; then the hybrid supervisor takes over
 (:class:`hybrid_recovery.evaluation.model_controllers.HybridEvalController`: the policy,
-and the QP once the robot stands). If the robot ends up lying still under the policy,
-the moves start again. Everything runs on the PD-servo model at the ``learned``
-controller's step: the moves' joint targets are the servo targets, so from a standing
-start this controller is the supervisor exactly.
+and the QP once the robot stands). If the robot lies still on the ground under the policy
+for ``GetupConfig.relapse_time`` (:func:`hybrid_recovery.getup.controllers.lying_still`),
+whatever ground state it is in, the moves start again from that state. Everything runs on
+the PD-servo model at the ``learned`` controller's step: the moves' joint targets are the
+servo targets, so from a standing start this controller is the supervisor exactly.
 """
 
 from __future__ import annotations
@@ -19,10 +20,8 @@ import numpy as np
 
 from hybrid_recovery.control.supervisor import POLICY
 from hybrid_recovery.evaluation.model_controllers import HybridEvalController
-from hybrid_recovery.getup.controllers import GetupConfig, com_height, move_events
-from hybrid_recovery.getup.ground_state import classify, read_ground_pose
+from hybrid_recovery.getup.controllers import GetupConfig, com_height, lying_still, move_events
 from hybrid_recovery.getup.move_executor import MOVING, GroundMoves
-from hybrid_recovery.getup.moves import NEXT_MOVE
 
 MOVES, SUPERVISOR = "moves", "supervisor"
 
@@ -85,9 +84,8 @@ class GroundHybridController:
         ctrl = self.supervised(model, data)
         if (self.supervised.supervisor.mode == POLICY
                 and self.relapses < self.config.max_relapses):
-            lying = (com_height(model, data) < self.config.ground_com_height
-                     and classify(read_ground_pose(model, data)) in NEXT_MOVE)
-            self._lying = self._lying + model.opt.timestep if lying else 0.0
+            still = lying_still(model, data, self.config)
+            self._lying = self._lying + model.opt.timestep if still else 0.0
             if self._lying >= self.config.relapse_time - 1e-9:
                 self.relapses += 1
                 self._lying = 0.0

@@ -160,6 +160,7 @@ def overlay_figures(results: dict[str, list[dict]], out: Path) -> list[tuple[str
         every = sorted({_direction(r) if key == "direction" else float(r.get(key, 0.0))
                         for rows in results.values() for r in rows})
         step = 0.015 * (every[-1] - every[0]) if len(every) > 1 else 0.0
+        drawn = False
         for j, (c, rows) in enumerate(results.items()):
             shift = (j - (len(results) - 1) / 2) * step  # side by side, not on top
             source = rows if key == "force" else [r for r in rows if r["force"] > 0]
@@ -168,10 +169,14 @@ def overlay_figures(results: dict[str, list[dict]], out: Path) -> list[tuple[str
             xs = list(rows_at)
             if not xs:
                 continue
+            drawn = True
             if times:
                 _time_line(ax, xs, rows_at, c, shift)
             else:
                 _errorbar_line(ax, xs, rows_at, c, shift)
+        if not drawn:  # e.g. no pushes on the poses protocol: no empty panel
+            plt.close(fig)
+            continue
         if key == "direction":
             shown = sorted({_direction(r) for rows in results.values() for r in rows
                             if r["force"] > 0})

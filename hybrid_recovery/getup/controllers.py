@@ -19,6 +19,7 @@ import numpy as np
 from hybrid_recovery.control.balance_controller import BalanceController
 from hybrid_recovery.control.torque_model import CONTROL_DT
 from hybrid_recovery.getup.move_executor import GroundMoves, MoveConfig
+from hybrid_recovery.robot import constants
 
 MOVES, QP = "moves", "qp"
 
@@ -32,20 +33,40 @@ class GetupConfig:
         ground_com_height: Below this CoM height a robot the QP does not apply to is on
             the ground and starts with the moves [m] (kneeling and squatting starts, with
             the CoM near 0.55 m, go to the policy at once).
-        relapse_time: Lying this long in a state a move starts from, under the policy,
-            starts the moves again [s].
+        relapse_time: Lying still this long without a break under the policy (CoM below
+            ``ground_com_height``, every joint slower than ``still_joint_speed``, the base
+            slower than ``still_base_speed``) starts the moves again from whatever ground
+            state the robot is in [s].
+        still_joint_speed: Largest joint speed |q̇_j| of a robot lying still [rad/s] (a
+            policy still trying to rise moves some joint at several rad/s; one that has
+            given up twitches below ~1 rad/s).
+        still_base_speed: Largest pelvis speed |v_b| of a robot lying still [m/s].
         max_relapses: Most such restarts per episode.
     """
 
     moves: MoveConfig = field(default_factory=MoveConfig)
     ground_com_height: float = 0.45
-    relapse_time: float = 3.0
+    relapse_time: float = 1.0
+    still_joint_speed: float = 2.0
+    still_base_speed: float = 0.2
     max_relapses: int = 2
 
 
 def com_height(model: mujoco.MjModel, data: mujoco.MjData) -> float:
     """CoM height h_c of the robot (the pelvis subtree) [m]."""
     return float(data.subtree_com[model.body("pelvis").id, 2])
+
+
+def lying_still(model: mujoco.MjModel, data: mujoco.MjData, config: GetupConfig) -> bool:
+    """Whether the robot lies still on the ground: h_c < ``ground_com_height``,
+    max_j |q̇_j| < ``still_joint_speed`` over the 27 actuated joints and the pelvis speed
+    |v_b| < ``still_base_speed``."""
+    if com_height(model, data) >= config.ground_com_height:
+        return False
+    joints = data.qvel[model.jnt_dofadr[1:1 + constants.NUM_JOINTS]]
+    base = data.qvel[model.jnt_dofadr[0]:model.jnt_dofadr[0] + 3]
+    return bool(np.abs(joints).max() < config.still_joint_speed
+                and np.linalg.norm(base) < config.still_base_speed)
 
 
 def move_events(moves: GroundMoves) -> list[tuple[float, str, str]]:

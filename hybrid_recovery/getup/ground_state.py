@@ -15,6 +15,11 @@ from hybrid_recovery.robot import constants
 GROUND_STATES = ("upright", "sitting", "supine", "prone", "knee_chest", "side", "other")
 """Every state :func:`classify` returns."""
 
+SEAT_BODIES = frozenset({constants.PELVIS_BODY, "left_hip_pitch_link", "right_hip_pitch_link",
+                         "left_hip_roll_link", "right_hip_roll_link"})
+"""Bodies a sitting robot rests on: the pelvis, or the hip links beside and below it (a robot
+sitting upright with its legs spread rests on the hip-pitch links, the pelvis clear)."""
+
 
 @dataclass(frozen=True)
 class GroundPose:
@@ -66,7 +71,8 @@ def classify(pose: GroundPose) -> str:
     * ``supine``: chest up (chest_z > 0.6); ``prone``: chest down (chest_z < −0.6) with
       the pelvis below 0.3 m; ``knee_chest``: chest down with the pelvis above 0.3 m and
       both knees on the floor;
-    * ``sitting``: spine within 60° of vertical, pelvis on the floor;
+    * ``sitting``: spine within 60° of vertical, a seat body (:data:`SEAT_BODIES`) on the
+      floor and not both knees;
     * ``side``: a torso side axis within 53° of vertical; ``other``: anything else
       (kneeling, squatting, on all fours ...).
     """
@@ -81,7 +87,7 @@ def classify(pose: GroundPose) -> str:
         if knees:
             return "knee_chest"
         return "other"
-    if pose.spine_z > 0.5 and constants.PELVIS_BODY in pose.touching and not knees:
+    if pose.spine_z > 0.5 and pose.touching & SEAT_BODIES and not knees:
         return "sitting"
     if abs(pose.left_z) > 0.6:
         return "side"
