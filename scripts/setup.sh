@@ -6,4 +6,5 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 python -m pip install -q --upgrade pip
 python -m pip install -q "torch==2.13.0"
-python -m pip install -q -e ".[dev,deploy]"
+# warp: MuJoCo Warp, the GPU physics backend; on the CPU device it runs the parity tests
+python -m pip install -q -e ".[dev,deploy,warp]"

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import json
 
 import numpy as np
@@ -87,20 +88,27 @@ def test_env_bench_reports_rates_and_split():
                            overrides={"physics_dt": 0.01, "decimation": 2})
     figures = json.loads(result.json_line())
     assert figures["bench"] == "env" and figures["num_envs"] == 4
+    assert figures["backend"] == "batch" and figures["device"] == "cpu"
     assert figures["physics_dt"] == 0.01
     assert figures["env_steps_per_s"] > 0 and figures["physics_steps_per_s"] > 0
     assert set(figures["ms_per_step"]) == {"physics", "state_and_hulls", "observations",
                                            "resets", "rewards_terminations_other"}
 
 
-def test_physics_replay_is_the_env_runs_physics():
+_WARP = pytest.mark.skipif(importlib.util.find_spec("mujoco_warp") is None,
+                           reason="MuJoCo Warp not installed (the 'warp' extra)")
+
+
+@pytest.mark.parametrize("backend", ["batch", pytest.param("warp", marks=[pytest.mark.warp,
+                                                                         _WARP])])
+def test_physics_replay_is_the_env_runs_physics(backend):
     """Without resets, replaying the recorded controls and pushes from the start state
     ends in the env run's own state, bit for bit; and the env carries on from there."""
     from hybrid_recovery.bench.physics_replay import PhysicsReplay
     from hybrid_recovery.envs import RecoveryEnv, default_config
 
     cfg = default_config()
-    cfg.num_envs, cfg.num_threads, cfg.seed = 4, 1, 3
+    cfg.num_envs, cfg.num_threads, cfg.seed, cfg.backend = 4, 1, 3, backend
     env = RecoveryEnv(cfg)
     replay = PhysicsReplay(env)
     with pytest.raises(RuntimeError, match=r"^PhysicsReplay.replay\(\) needs start\(\) first$"):
@@ -136,8 +144,9 @@ def test_train_bench_reports_split_and_physics_rate(train_bench):
                                                "policy_inference_and_storage", "ppo_update"}
     settings = dict(figures["settings"])
     assert settings.pop("omp_wait_policy") in (None, "PASSIVE", "ACTIVE")  # as the env has it
-    assert settings == {"threads": 1, "torch_threads": 1, "mixed_precision": False,
-                        "num_learning_epochs": 5, "num_mini_batches": 4, "symmetry": False}
+    assert settings == {"backend": "batch", "device": "cpu", "threads": 1, "torch_threads": 1,
+                        "mixed_precision": False, "num_learning_epochs": 5,
+                        "num_mini_batches": 4, "symmetry": False}
 
 
 def test_train_bench_splits_the_update(train_bench):

@@ -24,14 +24,23 @@ def _timed(obj, name: str, totals: dict) -> None:
     setattr(obj, name, wrapper)
 
 
+def _physics_name(cfg, threads: int) -> str:
+    """The physics of a bench run, for its title."""
+    if cfg.backend == "batch":
+        return f"{threads} physics threads"
+    return f"MuJoCo Warp on {cfg.device}"
+
+
 def run_env_bench(n: int = 1024, repeat: int = 3, seed: int = 0, steps: int = 50,
-                  threads: int = 2, overrides: dict | None = None) -> BenchResult:
+                  threads: int = 2, overrides: dict | None = None, backend: str = "batch",
+                  device: str = "cpu") -> BenchResult:
     """Times ``RecoveryEnv.step`` on ``n`` envs, then the bare Batch on the same states.
 
     The physics-only rate restores the Batch to the state the timed env run started from
     and replays the same controls and pushes, substeps and sensors, with no observation,
     reward, contact-hull or reset work: the same physics, step for step (envs the env run
-    reset continue without the reset).
+    reset continue without the reset). ``backend``/``device`` choose the physics
+    (:mod:`hybrid_recovery.sim.backend`); the JSON is the same for both.
     """
     import torch
 
@@ -39,6 +48,7 @@ def run_env_bench(n: int = 1024, repeat: int = 3, seed: int = 0, steps: int = 50
 
     cfg = apply_overrides(default_config(), overrides or {})
     cfg.num_envs, cfg.num_threads, cfg.seed = n, threads, seed
+    cfg.backend, cfg.device = backend, device
     env = RecoveryEnv(cfg)
     gen = torch.Generator().manual_seed(seed)
     actions = [torch.randn(n, 27, generator=gen) * 0.5 for _ in range(steps)]
@@ -69,10 +79,12 @@ def run_env_bench(n: int = 1024, repeat: int = 3, seed: int = 0, steps: int = 50
     rows = [(k, v / steps * 1e3, v / best_env) for k, v in split.items()]
     load = os.getloadavg()[0]
     return BenchResult(
-        name="env", title=f"RecoveryEnv.step, {n} envs, {threads} physics threads, {steps} "
-        f"steps, physics {cfg.physics_dt * 1e3:g} ms × {cfg.decimation} (load average {load:.2f})",
+        name="env", title=f"RecoveryEnv.step, {n} envs, {_physics_name(cfg, threads)}, "
+        f"{steps} steps, physics {cfg.physics_dt * 1e3:g} ms × {cfg.decimation} "
+        f"(load average {load:.2f})",
         columns=("part", "ms per step", "share"), rows=rows,
-        figures={"num_envs": n, "physics_dt": cfg.physics_dt, "env_steps_per_s": round(env_rate, 1),
+        figures={"num_envs": n, "backend": backend, "device": device,
+                 "physics_dt": cfg.physics_dt, "env_steps_per_s": round(env_rate, 1),
                  "physics_steps_per_s": round(phys_rate, 1),
                  "ratio": round(env_rate / phys_rate, 3),
                  "ms_per_step": {k: round(v / steps * 1e3, 2) for k, v in split.items()},

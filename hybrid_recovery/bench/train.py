@@ -17,7 +17,8 @@ from hybrid_recovery.bench.result import BenchResult
 from hybrid_recovery.bench.update_parts import fill_storage, ratio_noise, time_update_parts
 
 
-def bench_train_config(n: int, seed: int, threads: int, overrides: dict[str, Any] | None):
+def bench_train_config(n: int, seed: int, threads: int, overrides: dict[str, Any] | None,
+                       backend: str = "batch", device: str = "cpu"):
     """The bench's TrainConfig: ``n`` envs, ``threads`` physics and torch threads, then
     ``overrides``: ``ppo.<field>`` keys set PPO settings, other keys TrainConfig fields
     (e.g. ``torch_threads=1``, ``ppo.mixed_precision=true``).
@@ -40,12 +41,13 @@ def bench_train_config(n: int, seed: int, threads: int, overrides: dict[str, Any
                            f"(PPO settings as ppo.<name>)")
         dotted = key if group is ppo else f"train.{key}"
         group[name] = checked_value(dotted, value, get_type_hints(cls)[name])
-    cfg = TrainConfig(num_envs=n, seed=seed, num_threads=threads)
+    cfg = TrainConfig(num_envs=n, seed=seed, num_threads=threads, backend=backend, device=device)
     return replace(cfg, **top, ppo=replace(cfg.ppo, **ppo))
 
 
 def run_train_bench(n: int = 1024, repeat: int = 2, seed: int = 0, threads: int = 2,
-                    overrides: dict[str, Any] | None = None) -> BenchResult:
+                    overrides: dict[str, Any] | None = None, backend: str = "batch",
+                    device: str = "cpu") -> BenchResult:
     """Runs ``repeat`` PPO iterations (24 steps × n envs each) without logging.
 
     Splits an iteration into simulation (physics substeps), observation/reward work
@@ -59,19 +61,22 @@ def run_train_bench(n: int = 1024, repeat: int = 2, seed: int = 0, threads: int 
 
     Args:
         overrides: TrainConfig settings, see :func:`bench_train_config`.
+        backend, device: the physics backend and device (``cuda``: the learner too).
     """
     import torch
 
     from hybrid_recovery.envs import RecoveryEnv
     from hybrid_recovery.training.config import runner_dict
+    from hybrid_recovery.training.distributed import Rank
     from hybrid_recovery.training.runner import RecoveryRunner, make_env_config
 
-    cfg = bench_train_config(n, seed, threads, overrides)
+    cfg = bench_train_config(n, seed, threads, overrides, backend, device)
     torch_threads = cfg.torch_threads or cfg.num_threads
     torch.set_num_threads(torch_threads)
     env = RecoveryEnv(make_env_config(cfg))
     with contextlib.redirect_stdout(io.StringIO()):  # rsl-rl prints the networks
-        runner = RecoveryRunner(env, runner_dict(cfg), None, meta={})
+        runner = RecoveryRunner(env, runner_dict(cfg), None, meta={},
+                                device=Rank().learner_device(cfg.device))
     totals: dict[str, float] = defaultdict(float)
     _timed(env, "step", totals)
     _timed(env, "_physics", totals)
@@ -99,7 +104,8 @@ def run_train_bench(n: int = 1024, repeat: int = 2, seed: int = 0, threads: int 
     load = os.getloadavg()[0]
     env_rate, physics_rate = steps / wall, steps / physics_only
     ppo = cfg.ppo
-    settings = {"threads": cfg.num_threads, "torch_threads": torch_threads,
+    settings = {"backend": cfg.backend, "device": cfg.device,
+                "threads": cfg.num_threads, "torch_threads": torch_threads,
                 "mixed_precision": ppo.mixed_precision,
                 "num_learning_epochs": ppo.num_learning_epochs,
                 "num_mini_batches": ppo.num_mini_batches, "symmetry": ppo.symmetry,

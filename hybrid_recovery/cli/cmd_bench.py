@@ -6,7 +6,7 @@ import argparse
 import json
 
 from hybrid_recovery.cli.registry import command, parse_overrides
-from hybrid_recovery.cli.validate import integer, non_negative, positive
+from hybrid_recovery.cli.validate import add_backend_options, integer, non_negative, positive
 
 LAYER_BENCHES = ("dynamics", "env", "train")
 """Targets of :data:`hybrid_recovery.bench.BENCHES`: a table, then one JSON line."""
@@ -19,7 +19,8 @@ def _bench(args: argparse.Namespace) -> int:
         return _bench_deploy(args)
     from hybrid_recovery.bench import BENCHES
 
-    options = {"n": args.n, "repeat": args.repeat, "seed": args.seed}
+    options = {"n": args.n, "repeat": args.repeat, "seed": args.seed,
+               "backend": getattr(args, "backend", None), "device": getattr(args, "device", None)}
     if getattr(args, "set", None):
         options["overrides"] = parse_overrides(args.set)
     result = BENCHES[args.what](**{k: v for k, v in options.items() if v is not None})
@@ -66,6 +67,8 @@ def _configure_bench(p: argparse.ArgumentParser) -> None:
         t.add_argument("--repeat", type=integer(1), default=None,
                        help="timed runs, the best is kept")
         t.add_argument("--seed", type=int, default=None)
+        if name in ("env", "train"):
+            add_backend_options(t)
         if name == "env":
             t.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
                            help="EnvConfig overrides, e.g. physics_dt=0.01 decimation=2")

@@ -7,7 +7,7 @@ from pathlib import Path
 
 from hybrid_recovery.cli.errors import UsageError
 from hybrid_recovery.cli.registry import command, parse_overrides
-from hybrid_recovery.cli.validate import integer, positive
+from hybrid_recovery.cli.validate import add_backend_options, integer, positive
 
 DEFAULT_VARIANT = "full"
 
@@ -19,6 +19,7 @@ def _train(args: argparse.Namespace) -> int:
     settings = dict(num_envs=args.num_envs, iterations=args.iterations, seed=args.seed,
                     save_interval=args.save_interval, num_threads=args.threads,
                     torch_threads=args.torch_threads, init_std=args.init_std, max_std=args.max_std,
+                    backend=args.backend, device=args.device,
                     env_overrides=parse_overrides(args.set) or None)
     variant = args.variant or DEFAULT_VARIANT
     try:
@@ -56,6 +57,7 @@ def _configure_train(p: argparse.ArgumentParser) -> None:
                         "(default 2)")
     p.add_argument("--torch-threads", type=integer(1), default=None,
                    help="torch threads for inference and the PPO update (default: --threads)")
+    add_backend_options(p)
     p.add_argument("--run-dir", default=None, help="default: runs/<variant>")
     p.add_argument("--resume", action="store_true",
                    help="continue the run in --run-dir with its saved settings")

@@ -75,3 +75,14 @@ non_negative = number(0.0, inclusive=True)
 """An argparse type: a finite number >= 0."""
 positive = number(0.0)
 """An argparse type: a finite number > 0."""
+
+
+def add_backend_options(p: argparse.ArgumentParser) -> None:
+    """``--backend`` and ``--device``: where the physics (and the learner) run."""
+    from hybrid_recovery.sim.backend import BACKENDS, DEVICES
+
+    p.add_argument("--backend", choices=BACKENDS, default=None,
+                   help="physics: batch (CPU MuJoCo, the default) | warp (MuJoCo Warp, the "
+                        "'warp' extra)")
+    p.add_argument("--device", choices=DEVICES, default=None,
+                   help="cpu (the default) | cuda (with --backend warp; the learner too)")

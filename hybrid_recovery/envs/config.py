@@ -279,7 +279,12 @@ class EnvConfig:
 
     num_envs: int = 1024
     num_threads: int = 0
-    """Physics threads (0 = all cores)."""
+    """Physics threads of the ``batch`` backend (0 = all cores)."""
+    backend: str = "batch"
+    """Physics backend: ``batch`` (CPU MuJoCo, float64) or ``warp`` (MuJoCo Warp, float32;
+    :mod:`hybrid_recovery.sim.backend`)."""
+    device: str = "cpu"
+    """Device of the ``warp`` backend: ``cpu`` or ``cuda``."""
     seed: int = 0
     model_path: str | None = None
     """MJCF of the robot; None = the project's own H1-2."""

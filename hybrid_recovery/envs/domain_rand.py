@@ -1,4 +1,4 @@
-"""Per-episode domain randomisation (paper §III-G) on a ``mujoco.batch.Batch``'s model fields.
+"""Per-episode domain randomisation (paper §III-G) on the physics batch's per-world model fields.
 
 Ranges are widened from nominal by ``scale`` ∈ [0, 1] (the curriculum's difficulty): a
 multiplier range (a, b) becomes (1 + scale (a − 1), 1 + scale (b − 1)); absolute ranges
@@ -11,10 +11,15 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
-from mujoco import batch as mjbatch
 
 from hybrid_recovery.envs.config import DomainRandConfig
 from hybrid_recovery.robot import constants
+from hybrid_recovery.sim.backend import PhysicsBatch
+
+RANDOMIZED_FIELDS = ("actuator_gainprm", "actuator_biasprm", "actuator_forcerange",
+                     "dof_frictionloss", "dof_armature", "geom_friction", "geom_solref",
+                     "body_mass", "body_inertia", "jnt_range")
+"""The model fields :class:`Randomizer` gives per-world values."""
 
 
 def restitution_to_damping_ratio(e: np.ndarray) -> np.ndarray:
@@ -44,17 +49,14 @@ class Randomizer:
     """
 
     model: mujoco.MjModel
-    sims: mjbatch.Batch
+    sims: PhysicsBatch
     cfg: DomainRandConfig
 
     def __post_init__(self) -> None:
         m, s = self.model, self.sims
-        self.gain, self.bias = s.expand("actuator_gainprm"), s.expand("actuator_biasprm")
-        self.force_range = s.expand("actuator_forcerange")
-        self.friction_loss, self.armature = s.expand("dof_frictionloss"), s.expand("dof_armature")
-        self.geom_friction, self.geom_solref = s.expand("geom_friction"), s.expand("geom_solref")
-        self.mass, self.inertia = s.expand("body_mass"), s.expand("body_inertia")
-        self.jnt_range = s.expand("jnt_range")
+        (self.gain, self.bias, self.force_range, self.friction_loss, self.armature,
+         self.geom_friction, self.geom_solref, self.mass, self.inertia,
+         self.jnt_range) = (s.expand(name) for name in RANDOMIZED_FIELDS)
         self.dofs = m.jnt_dofadr[1:1 + constants.NUM_JOINTS]
         self.kp0, self.kd0 = -m.actuator_biasprm[:, 1].copy(), -m.actuator_biasprm[:, 2].copy()
         self.range0 = m.jnt_range.copy()

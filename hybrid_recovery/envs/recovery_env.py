@@ -1,9 +1,11 @@
-"""RecoveryEnv: N H1-2 robots in a persistent ``mujoco.batch.Batch``, the paper's MDP.
+"""RecoveryEnv: N H1-2 robots in a persistent physics batch, the paper's MDP.
 
 One control step (50 Hz) = ``decimation`` physics substeps; within it each robot's PD
 targets follow its per-episode actuation delay. All MDP work is vectorised numpy over
 the batch; balance inputs are MuJoCo sensors (see :mod:`hybrid_recovery.sim.scene`)
-turned into balance quantities by :mod:`hybrid_recovery.dynamics`.
+turned into balance quantities by :mod:`hybrid_recovery.dynamics`. The batch is CPU
+MuJoCo's ``mujoco.batch.Batch`` or MuJoCo Warp (``EnvConfig.backend``,
+:mod:`hybrid_recovery.sim.backend`); the MDP is the same code on both.
 """
 
 from __future__ import annotations
@@ -24,7 +26,7 @@ from hybrid_recovery.dynamics.support import signed_distance_batched
 from hybrid_recovery.envs.assist import Assist
 from hybrid_recovery.envs.config import EnvConfig, default_config
 from hybrid_recovery.envs.curriculum import Curriculum
-from hybrid_recovery.envs.domain_rand import Randomizer
+from hybrid_recovery.envs.domain_rand import RANDOMIZED_FIELDS, Randomizer
 from hybrid_recovery.envs.pose_bridge import PoseBridge
 from hybrid_recovery.envs.pushes import Pushes
 from hybrid_recovery.envs.rewards import RewardState, compute_rewards
@@ -34,6 +36,7 @@ from hybrid_recovery.observation.actor import actor_observation, noise_halfwidth
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.action import clip_action, joint_targets
 from hybrid_recovery.robot.mjcf import default_qpos
+from hybrid_recovery.sim.backend import check_backend, physics_batch
 from hybrid_recovery.sim.initial_states import (
     POSES,
     perturb_start,
@@ -57,12 +60,20 @@ class RecoveryEnv(VecEnv):
     Args:
         cfg: Environment configuration; None for :func:`default_config`.
         device: torch device of the returned tensors.
+        local_rank: the process's GPU (``cuda:<local_rank>``) for the ``warp`` backend on
+            ``cuda`` under ``torchrun``.
+
+    Raises:
+        ValueError, ImportError: a bad ``backend``/``device`` choice
+            (:func:`~hybrid_recovery.sim.backend.check_backend`).
     """
 
-    def __init__(self, cfg: EnvConfig | None = None, device: str = "cpu") -> None:
+    def __init__(self, cfg: EnvConfig | None = None, device: str = "cpu",
+                 local_rank: int = 0) -> None:
         self.cfg = cfg = cfg or default_config()
         if cfg.num_envs < 1:
             raise ValueError(f"num_envs must be >= 1, got {cfg.num_envs}")
+        check_backend(cfg.backend, cfg.device)
         self.device = device
         self.num_envs, self.num_actions = cfg.num_envs, constants.NUM_JOINTS
         self.dt = cfg.physics_dt * cfg.decimation
@@ -74,7 +85,9 @@ class RecoveryEnv(VecEnv):
                                               delay_samples=int(delay[1]) + 2)
         n, m = cfg.num_envs, self.model
         self.rises = RiseStarts(cfg.rises, m.nq, m.nv)  # its files checked before the work
-        self.sims = mjbatch.Batch(m, n, cfg.num_threads, persistent=True)
+        self.sims = physics_batch(m, n, cfg.num_threads, cfg.backend, cfg.device,
+                                  expand=(*RANDOMIZED_FIELDS, "actuator_delay"),
+                                  local_rank=local_rank)
         b = self.sims.bind
         self.qpos, self.qvel, self.ctrl = b("qpos"), b("qvel"), b("ctrl")
         self.xfrc, self.xmat = b("xfrc_applied"), b("xmat")

@@ -17,6 +17,7 @@ import numpy as np
 from mujoco import batch as mjbatch
 
 from hybrid_recovery.robot import constants
+from hybrid_recovery.sim.backend import PhysicsBatch
 
 POSES = ("standing", "squatting", "kneeling", "sitting", "supine", "prone", "half_kneeling")
 """The paper's six start poses, then the half-kneel, a stepping stone beyond the paper
@@ -180,7 +181,7 @@ def settle_pool(model: mujoco.MjModel, per_pose: int, rng: np.random.Generator,
     return out
 
 
-def seat_on_ground(model: mujoco.MjModel, sims: mjbatch.Batch, ids: np.ndarray,
+def seat_on_ground(model: mujoco.MjModel, sims: PhysicsBatch, ids: np.ndarray,
                    clearance: float = 0.005) -> None:
     """Shifts the base of sims ``ids`` vertically so their lowest geom is at ``clearance``."""
     sims.forward(ids, stage=mujoco.mjtStage.mjSTAGE_POS)

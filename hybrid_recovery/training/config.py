@@ -60,6 +60,10 @@ class TrainConfig:
     """Physics threads (MuJoCo's Batch), and torch threads unless ``torch_threads`` is set."""
     torch_threads: int | None = None
     """Torch intra-op threads for inference and the PPO update; None: ``num_threads``."""
+    backend: str = "batch"
+    """Physics backend, ``batch`` or ``warp`` (:mod:`hybrid_recovery.sim.backend`)."""
+    device: str = "cpu"
+    """``cpu``, or ``cuda`` for MuJoCo Warp and the learner on the process's GPU."""
     ppo: PPOConfig = field(default_factory=PPOConfig)
     env_overrides: dict[str, Any] = field(default_factory=dict)
     """Dotted EnvConfig overrides applied after the variant's."""

@@ -16,6 +16,7 @@ from hybrid_recovery.envs import RecoveryEnv, apply_overrides, default_config
 from hybrid_recovery.envs.config import EnvConfig
 from hybrid_recovery.observation import ACTOR_OBS_DIM, ACTOR_TERMS
 from hybrid_recovery.robot.constants import JOINT_NAMES
+from hybrid_recovery.sim.backend import check_backend
 from hybrid_recovery.training.checkpoint import (
     LATEST,
     RUN_CONFIG,
@@ -32,6 +33,7 @@ from hybrid_recovery.training.config import (
     runner_dict,
     train_config_from_dict,
 )
+from hybrid_recovery.training.distributed import Rank, process_rank
 from hybrid_recovery.training.record import hardware
 from hybrid_recovery.training.variants import variant_overrides
 
@@ -42,8 +44,8 @@ class RecoveryRunner(OnPolicyRunner):
     env: RecoveryEnv
 
     def __init__(self, env: RecoveryEnv, train_cfg: dict, log_dir: str | None,
-                 meta: dict, keep: int = 3) -> None:
-        super().__init__(env, train_cfg, log_dir=log_dir, device="cpu")
+                 meta: dict, keep: int = 3, device: str = "cpu") -> None:
+        super().__init__(env, train_cfg, log_dir=log_dir, device=device)
         self.meta, self.keep = meta, keep
         self.compute_s: float | None = 0.0  # None: a resumed run whose earlier time is unknown
         self.segments = [{"iteration": 0, "hardware": hardware()}]
@@ -53,7 +55,7 @@ class RecoveryRunner(OnPolicyRunner):
         saved = self.alg.save()
         saved["iter"] = self.current_learning_iteration
         env_steps = (self.current_learning_iteration + 1) * self.cfg["num_steps_per_env"] \
-            * self.env.num_envs
+            * self.env.num_envs * self.gpu_world_size
         now = time.time()
         if self.compute_s is not None:
             self.compute_s += now - self._clock
@@ -96,6 +98,7 @@ def make_env_config(cfg: TrainConfig) -> EnvConfig:
     apply_overrides(env_cfg, variant_overrides(cfg.variant))
     apply_overrides(env_cfg, cfg.env_overrides)
     env_cfg.num_envs, env_cfg.seed, env_cfg.num_threads = cfg.num_envs, cfg.seed, cfg.num_threads
+    env_cfg.backend, env_cfg.device = cfg.backend, cfg.device
     return env_cfg
 
 
@@ -115,8 +118,9 @@ def policy_meta(cfg: TrainConfig, env_cfg: EnvConfig, critic_dim: int) -> dict:
             "train_config": dataclasses.asdict(cfg), "env_config": dataclasses.asdict(env_cfg)}
 
 
-_KEPT_ON_RESUME = ("iterations", "num_threads", "torch_threads")
-"""TrainConfig fields a resume takes from the options given now (when given)."""
+_KEPT_ON_RESUME = ("iterations", "num_threads", "torch_threads", "backend", "device")
+"""TrainConfig fields a resume takes from the options given now (when given): where and
+how long it runs, not what it learns."""
 _OPTION = {"env_overrides": "--set", "ppo": "--symmetry"}
 """The ``train`` option of a TrainConfig field, where it is not ``--<field-name>``."""
 
@@ -136,6 +140,7 @@ def _resumed_config(run_dir: Path, cfg: TrainConfig,
     saved = train_config_from_dict(read_run_config(run_dir)["train_config"])
     given = {f.name for f in dataclasses.fields(TrainConfig)} if given is None else set(given)
     saved.num_threads, saved.torch_threads = cfg.num_threads, cfg.torch_threads
+    saved.backend, saved.device = cfg.backend, cfg.device
     if "iterations" in given:
         saved.iterations = cfg.iterations
     ignored = sorted(_OPTION.get(name, "--" + name.replace("_", "-"))
@@ -158,7 +163,7 @@ def _run_files(run_dir: Path) -> list[Path]:
 
 def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
           amend: dict | None = None, force: bool = False,
-          given: Collection[str] | None = None) -> RecoveryRunner:
+          given: Collection[str] | None = None, rank: Rank | None = None) -> RecoveryRunner:
     """Trains (or resumes) a run in ``run_dir`` up to ``cfg.iterations`` iterations.
 
     The run directory holds ``config.json`` (resolved train and env configs, git commit,
@@ -174,6 +179,10 @@ def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
             and TensorBoard logs are removed (only once the new settings are checked).
         given: with ``resume``, the TrainConfig fields the caller set (see
             :func:`_resumed_config`); None: all.
+        rank: this process among several (``torchrun``, see
+            :mod:`~hybrid_recovery.training.distributed`); None: read from the
+            environment. Each rank simulates its own envs with seed ``seed + rank`` on its
+            GPU; only rank 0 writes the run directory.
 
     Raises:
         FileExistsError: a new run (no ``resume``, no ``force``) in a directory that
@@ -183,6 +192,8 @@ def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
             checkpoint, a damaged ``config.json`` (named), or a bad setting.
     """
     run_dir = Path(run_dir)
+    check_backend(cfg.backend, cfg.device)
+    rank = rank or process_rank(cfg.device)
     if amend and not resume:
         raise ValueError("amendments change a resumed run; give a new run its settings "
                          "as options instead")
@@ -212,17 +223,20 @@ def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
                                "git_commit": _git_commit()})
             print(f"[hybrid-recovery] amending the run's settings: {amend}", flush=True)
     env_cfg = make_env_config(cfg)  # every setting checked before a file is written
-    torch.manual_seed(cfg.seed)
+    torch.manual_seed(rank.seed(cfg.seed))
     torch.set_num_threads(cfg.torch_threads or cfg.num_threads)
-    env = RecoveryEnv(env_cfg)
-    if force and not resume:
-        for old in existing:
-            old.unlink()
-    run_dir.mkdir(parents=True, exist_ok=True)
+    env = RecoveryEnv(dataclasses.replace(env_cfg, seed=rank.seed(cfg.seed)),
+                      local_rank=rank.local_rank)
     critic_dim = int(env.get_observations()["critic"].shape[1])
     meta = {**policy_meta(cfg, env_cfg, critic_dim), "amendments": amendments}
-    atomic_write_text(json.dumps(meta, indent=2, default=str), run_dir / RUN_CONFIG)
-    runner = RecoveryRunner(env, runner_dict(cfg), str(run_dir), meta, cfg.keep_checkpoints)
+    if rank.writes:
+        if force and not resume:
+            for old in existing:
+                old.unlink()
+        run_dir.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(json.dumps(meta, indent=2, default=str), run_dir / RUN_CONFIG)
+    runner = RecoveryRunner(env, runner_dict(cfg), str(run_dir) if rank.writes else None, meta,
+                            cfg.keep_checkpoints, device=rank.learner_device(cfg.device))
     if resume:
         runner.load_run(latest)
         if amend and "assist.fraction" in amend:  # the amendment outranks the saved state

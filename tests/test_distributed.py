@@ -1,0 +1,68 @@
+"""Several training processes (``torchrun``): each rank's device and seed, and only rank 0
+writes the run. rsl-rl's NCCL all-reduce itself needs GPUs and is not run here."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from hybrid_recovery.training import train
+from hybrid_recovery.training.config import TrainConfig
+from hybrid_recovery.training.distributed import Rank, process_rank
+
+
+def test_one_process_without_torchrun():
+    assert process_rank("cpu", {}) == Rank(1, 0, 0)
+    assert process_rank("cuda", {"WORLD_SIZE": "1"}) == Rank(1, 0, 0)
+
+
+def test_torchrun_ranks_get_their_gpu_and_seed():
+    rank = process_rank("cuda", {"WORLD_SIZE": "4", "RANK": "3", "LOCAL_RANK": "1"})
+    assert rank == Rank(4, 3, 1)
+    assert rank.learner_device("cuda") == "cuda:1"
+    assert rank.seed(7) == 10
+    assert not rank.writes and Rank(4, 0, 0).writes
+
+
+def test_several_processes_need_cuda():
+    with pytest.raises(ValueError) as err:
+        process_rank("cpu", {"WORLD_SIZE": "2", "RANK": "0", "LOCAL_RANK": "0"})
+    assert str(err.value) == ("2 training processes (WORLD_SIZE) need --device cuda: "
+                              "rsl-rl's multi-GPU mode all-reduces gradients over NCCL")
+
+
+def test_a_rank_outside_the_world_is_refused():
+    with pytest.raises(ValueError) as err:
+        process_rank("cuda", {"WORLD_SIZE": "2", "RANK": "2", "LOCAL_RANK": "0"})
+    assert str(err.value) == "RANK 2 and LOCAL_RANK 0 must be in [0, 2)"
+
+
+def test_only_rank_zero_writes_and_ranks_draw_different_episodes(tmp_path):
+    cfg = TrainConfig(num_envs=8, iterations=2, save_interval=1, num_threads=1,
+                      hidden_dims=(32, 32), seed=5)
+    runs = {}
+    for k in (0, 1):
+        run_dir = tmp_path / f"rank{k}"
+        runs[k] = train(run_dir, cfg, rank=Rank(world_size=2, rank=k, local_rank=0))
+    assert not (tmp_path / "rank1").exists()
+    written = sorted(p.name for p in (tmp_path / "rank0").iterdir())
+    assert "config.json" in written and "latest.pt" in written
+    assert runs[0].env.cfg.seed == 5 and runs[1].env.cfg.seed == 6
+    assert not np.array_equal(runs[0].env.qpos, runs[1].env.qpos)
+
+
+def test_a_resume_runs_where_it_is_told_and_learns_what_it_learnt(tmp_path):
+    """Backend and device are where a run runs (taken from the resume's options); what it
+    learns (here the seed and the network) stays the run's own."""
+    import dataclasses
+    import json
+
+    from hybrid_recovery.training.runner import _resumed_config
+
+    saved = TrainConfig(num_envs=8, seed=5, hidden_dims=(32, 32))
+    (tmp_path / "config.json").write_text(json.dumps(
+        {"train_config": dataclasses.asdict(saved)}))
+    now = TrainConfig(num_envs=8, seed=9, backend="warp", device="cuda")
+    resumed = _resumed_config(tmp_path, now, given={"backend", "device", "seed"})
+    assert (resumed.backend, resumed.device) == ("warp", "cuda")
+    assert resumed.seed == 5 and resumed.hidden_dims == (32, 32)

@@ -1,0 +1,317 @@
+"""The two physics backends run one MDP: from the same states and actions, CPU MuJoCo
+(``batch``, float64) and MuJoCo Warp on the CPU device (``warp``, float32) agree.
+
+Both envs are built with the same seed, so their resets, randomised model values, pushes
+and observation noise are drawn alike; they are then stepped with the same actions at
+full difficulty (curriculum off: every start pose, full domain randomisation, pushes,
+1× torque; 16 envs from all six poses). Measured worst cases over 4 control steps:
+|Δqpos| 2.2e-6, |Δqvel| 2.5e-4 rad/s, reward terms 8e-7, observations 2.5e-4, hull
+distances 5e-7 m, contact points 4e-7 m, contact forces 0.011 N. The tolerances below
+are 4–50× those: float32 against float64, and Warp's solver tolerance (≥ 1e-6).
+
+What it takes to agree (measured, see ``docs/backends.md``):
+
+* the constraint solver run to convergence on both (``opt.iterations`` 100 here). The
+  model caps Newton at 10 iterations; in the few contact states where that cap is met the
+  two solvers stop at different iterates (Warp's tolerance is at least 1e-6, float32) and
+  the envs drift apart by O(1) rad/s within 5 control steps;
+* a plane–box contact keeps at most the box's 4 corners on the plane's side in C, every
+  corner below the plane in MuJoCo Warp 4.0.0 (:func:`test_plane_box_contacts_differ`):
+  a 3 cm foot box pressed deeper than its tilt allows (the 10× exploration torques of
+  stage 1 slamming a squat) gets up to 8 contacts on Warp and the envs part.
+
+The first call of MuJoCo Warp on a machine compiles its kernels (≈ 1 min on the CPU,
+cached under ``~/.cache/warp``); run with ``-m warp`` or ``-m "not warp"`` to choose.
+"""
+
+from __future__ import annotations
+
+import json
+
+import mujoco
+import numpy as np
+import pytest
+import torch
+
+pytest.importorskip("mujoco_warp", reason="MuJoCo Warp not installed (the 'warp' extra)")
+
+from hybrid_recovery.bench import run_env_bench  # noqa: E402
+from hybrid_recovery.envs import RecoveryEnv, default_config  # noqa: E402
+from hybrid_recovery.envs import recovery_env as recovery_env_module  # noqa: E402
+from hybrid_recovery.envs.rewards import compute_rewards  # noqa: E402
+from hybrid_recovery.sim.scene import build_scene, read_contacts  # noqa: E402
+from hybrid_recovery.sim.warp_batch import WarpBatch  # noqa: E402
+
+pytestmark = pytest.mark.warp
+
+NUM_ENVS, STEPS = 16, 4
+QPOS_TOL, QVEL_TOL = 1e-4, 3e-3
+"""[m or rad], [m/s or rad/s]."""
+REWARD_TOL, OBS_TOL = 1e-5, 1e-3
+"""Per reward term and step [reward units]; per observation entry [its units]."""
+DISTANCE_TOL, FORCE_TOL = 1e-5, 0.1
+"""Hull distances and contact points [m]; contact normal forces [N]."""
+
+
+def _converged_scene(*args, **kwargs):
+    model, layout = build_scene(*args, **kwargs)
+    model.opt.iterations = 100
+    return model, layout
+
+
+@pytest.fixture(scope="module")
+def runs():
+    """Both backends stepped alike: per step, each env's physics, MDP state, observations,
+    reward terms and contact slots."""
+    mp = pytest.MonkeyPatch()
+    mp.setattr(recovery_env_module, "build_scene", _converged_scene)
+    envs = {}
+    for backend in ("batch", "warp"):
+        cfg = default_config()
+        cfg.num_envs, cfg.num_threads, cfg.seed, cfg.backend = NUM_ENVS, 1, 1, backend
+        cfg.curriculum.enabled = False
+        envs[backend] = RecoveryEnv(cfg)
+    mp.undo()
+    gen = torch.Generator().manual_seed(0)
+    out: dict[str, list[dict]] = {name: [] for name in envs}
+    for _ in range(STEPS):
+        actions = torch.randn(NUM_ENVS, 27, generator=gen) * 0.3
+        for name, env in envs.items():
+            obs, reward, done, _ = env.step(actions)
+            _, parts = compute_rewards(env._reward_state(np.zeros(NUM_ENVS, dtype=bool)),
+                                       env.cfg.rewards, env.h_star, env.dt)
+            active, normal, points = read_contacts(env.sims.bind("sensordata"), env.layout)
+            out[name].append({
+                "qpos": env.qpos.astype(float), "qvel": env.qvel.astype(float),
+                "state": {k: np.asarray(v, dtype=float) for k, v in env._state.items()},
+                "policy": obs["policy"].numpy().copy(), "critic": obs["critic"].numpy().copy(),
+                "reward": reward.numpy().copy(), "parts": parts, "done": done.numpy().copy(),
+                "active": active.copy(), "normal": normal.astype(float),
+                "points": points.astype(float)})
+    return envs, out
+
+
+def _worst(runs, key):
+    _, out = runs
+    return max(float(np.abs(a[key] - w[key]).max()) for a, w in zip(out["batch"], out["warp"],
+                                                                   strict=True))
+
+
+def test_same_starts_and_randomisation(runs):
+    envs, _ = runs
+    batch, warp = envs["batch"], envs["warp"]
+    assert (batch.start_pose == warp.start_pose).all()
+    assert (batch.delay_steps == warp.delay_steps).all()
+    assert len(set(batch.start_pose)) >= 4  # several poses, lying ones among them
+    np.testing.assert_allclose(warp.randomizer.mass, batch.randomizer.mass, rtol=1e-6)
+    np.testing.assert_allclose(warp.randomizer.gain, batch.randomizer.gain, rtol=1e-6)
+    np.testing.assert_allclose(warp.randomizer.geom_friction, batch.randomizer.geom_friction,
+                               rtol=1e-6)
+
+
+def test_physics_state_agrees(runs):
+    assert _worst(runs, "qpos") < QPOS_TOL
+    assert _worst(runs, "qvel") < QVEL_TOL
+
+
+def test_every_reward_term_agrees(runs):
+    _, out = runs
+    for a, w in zip(out["batch"], out["warp"], strict=True):
+        assert set(a["parts"]) == set(w["parts"])
+        for name in a["parts"]:
+            assert np.abs(a["parts"][name] - w["parts"][name]).max() < REWARD_TOL, name
+        assert (a["done"] == w["done"]).all()
+    assert _worst(runs, "reward") < REWARD_TOL
+
+
+def test_every_observation_term_agrees(runs):
+    """Actor (noisy, the same noise draws) and critic observations (with the privileged
+    momenta and the CoM acceleration, a finite difference over Δt), entry by entry."""
+    _, out = runs
+    for a, w in zip(out["batch"], out["warp"], strict=True):
+        np.testing.assert_allclose(w["policy"], a["policy"], atol=OBS_TOL, rtol=0)
+        np.testing.assert_allclose(w["critic"], a["critic"], atol=OBS_TOL, rtol=0)
+
+
+def test_support_hulls_and_contacts_agree(runs):
+    """The contact slots the rewards read: as many slots active per group, the same
+    normal forces and points; the support-hull distances of CoM and capture point."""
+    envs, out = runs
+    for a, w in zip(out["batch"], out["warp"], strict=True):
+        for group, slots in envs["batch"].layout.group_slots.items():
+            assert (a["active"][:, slots].sum(1) == w["active"][:, slots].sum(1)).all(), group
+            force_a = a["normal"][:, slots].sum(1)
+            force_w = w["normal"][:, slots].sum(1)
+            assert np.abs(force_a - force_w).max() < FORCE_TOL, group
+        both = a["active"] & w["active"]
+        assert np.abs(a["points"] - w["points"])[both].max(initial=0.0) < DISTANCE_TOL
+        for key in ("d_com", "d_cp"):
+            assert np.abs(a["state"][key] - w["state"][key]).max() < DISTANCE_TOL, key
+        for key in ("torso_force", "foot_force"):
+            assert np.abs(a["state"][key] - w["state"][key]).max() < FORCE_TOL, key
+        assert (a["state"]["support_contacts"] == w["state"]["support_contacts"]).all()
+    assert any(o["active"].any() for o in out["warp"])  # contacts were there to compare
+
+
+def test_env_arrays_are_views_of_warp_memory(runs):
+    envs, _ = runs
+    env = envs["warp"]
+    sims = env.sims
+    assert isinstance(sims, WarpBatch)
+    assert np.shares_memory(env.qpos, sims.d.qpos.numpy())
+    assert np.shares_memory(env.xmat, sims.d.xmat.numpy())
+    assert np.shares_memory(env.randomizer.mass, sims.m.body_mass.numpy())
+    saved = env.qvel[0, 0].copy()
+    env.qvel[0, 0] = 0.25
+    assert sims.d.qvel.numpy()[0, 0] == np.float32(0.25)
+    env.qvel[0, 0] = saved
+
+
+def _batch_run(mirror: bool) -> dict[str, np.ndarray]:
+    model, _ = build_scene()
+    sims = WarpBatch(model, 3, "cpu", expand=("body_mass",), mirror=mirror)
+    qpos, qvel, ctrl = sims.bind("qpos"), sims.bind("qvel"), sims.bind("ctrl")
+    sensordata = sims.bind("sensordata")
+    qpos[:, 2] = [1.2, 1.4, 1.6]
+    qvel[:, 0] = [0.0, 0.5, -0.5]
+    ctrl[:] = 0.1
+    sims.expand("body_mass")[1] *= 1.5
+    sims.set_const()
+    sims.forward()
+    sims.step(nstep=3, stage=mujoco.mjtStage.mjSTAGE_VEL)
+    before = sensordata.copy()
+    qpos[0, 0] = 0.3  # world 0 moves; worlds 1, 2 keep their derived fields
+    sims.forward([0])
+    return {"qpos": qpos.copy(), "qvel": qvel.copy(), "sensordata": sensordata.copy(),
+            "before": before, "subtreemass": sims.m.body_subtreemass.numpy()[:, 0].copy()}
+
+
+def test_host_copies_give_the_same_results_as_views():
+    """``mirror=True`` is the ``cuda`` device's path (host copies uploaded before and
+    downloaded after every call), run here on the CPU device: bit-identical results."""
+    views, mirrored = _batch_run(False), _batch_run(True)
+    for key in views:
+        np.testing.assert_array_equal(mirrored[key], views[key])
+    # forward([0]) changed world 0's sensors only
+    assert not np.array_equal(views["sensordata"][0], views["before"][0])
+    np.testing.assert_array_equal(views["sensordata"][1:], views["before"][1:])
+    # set_const derived each world's own total mass: world 1's bodies are 1.5× heavier
+    total = views["subtreemass"]
+    assert total[1] == pytest.approx(1.5 * total[0], rel=1e-6)
+    assert total[2] == pytest.approx(total[0], rel=1e-6)
+
+
+def test_plane_box_contacts_differ():
+    """A known difference of the engines (MuJoCo 4.0 vs MuJoCo Warp 4.0.0): a box tilted
+    and pressed into the floor so that corners of its upper half are below it gets at
+    most 4 contacts in C (lower-half corners only) and one per corner below in Warp."""
+    spec = mujoco.MjSpec()
+    spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[5, 5, 0.1])
+    body = spec.worldbody.add_body(pos=[0, 0, 0.0])
+    body.add_freejoint()
+    body.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.1275, 0.0425, 0.015])
+    model = spec.compile()
+    data = mujoco.MjData(model)
+    pitch, z = 0.3, -0.03  # toe down 0.3 rad, centre 3 cm below the floor
+    data.qpos[:7] = [0, 0, z, np.cos(pitch / 2), 0, np.sin(pitch / 2), 0]
+    mujoco.mj_forward(model, data)
+    sims = WarpBatch(model, 1, "cpu")
+    sims.bind("qpos")[0] = data.qpos
+    sims.forward()
+    below = int(np.sum(_box_corner_heights(pitch, z) < 0))
+    assert data.ncon == 4
+    assert int(sims.d.nacon.numpy()[0]) == below > 4
+
+
+def _box_corner_heights(pitch: float, z: float) -> np.ndarray:
+    half = np.array([0.1275, 0.0425, 0.015])
+    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)])
+    c, s = np.cos(pitch), np.sin(pitch)
+    rot = np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+    return z + (signs * half) @ rot[2]
+
+
+def test_env_bench_prints_the_same_json_on_both_backends():
+    """``bench env --backend warp``: the same figures, the physics-only rate replayed on
+    Warp's worlds."""
+    lines = {backend: json.loads(run_env_bench(n=2, repeat=1, steps=3, threads=1,
+                                               backend=backend).json_line())
+             for backend in ("batch", "warp")}
+    assert set(lines["warp"]) == set(lines["batch"])
+    assert set(lines["warp"]["ms_per_step"]) == set(lines["batch"]["ms_per_step"])
+    assert lines["warp"]["backend"] == "warp" and lines["warp"]["device"] == "cpu"
+    assert lines["warp"]["physics_steps_per_s"] > 0 and lines["warp"]["env_steps_per_s"] > 0
+
+
+def test_train_bench_prints_the_same_json_on_both_backends():
+    """``bench train --backend warp``: PPO iterations on Warp's worlds, the same figures."""
+    from hybrid_recovery.bench import run_train_bench
+
+    lines = {backend: json.loads(run_train_bench(n=4, repeat=1, threads=1, backend=backend,
+                                                 overrides={"ppo.num_learning_epochs": 1})
+                                 .json_line())
+             for backend in ("batch", "warp")}
+    assert set(lines["warp"]) == set(lines["batch"])
+    assert set(lines["warp"]["s_per_iteration"]) == set(lines["batch"]["s_per_iteration"])
+    assert lines["warp"]["settings"]["backend"] == "warp"
+    assert lines["warp"]["env_steps_per_s"] > 0
+
+
+def test_cuda_without_a_gpu_is_refused_by_name():
+    import warp as wp
+
+    from hybrid_recovery.sim.backend import check_backend
+
+    if wp.get_cuda_device_count() > 0:
+        pytest.skip("a CUDA GPU is present")
+    with pytest.raises(ValueError) as err:
+        check_backend("warp", "cuda")
+    assert str(err.value) == "device 'cuda' needs a CUDA GPU, and Warp finds none"
+
+
+def test_warp_batch_refuses_what_it_cannot_do_by_name():
+    model, _ = build_scene()
+    with pytest.raises(ValueError) as err:
+        WarpBatch(model, 0)
+    assert str(err.value) == "WarpBatch needs nsim >= 1, got 0"
+    sims = WarpBatch(model, 2, "cpu", expand=("body_mass",))
+    with pytest.raises(ValueError) as err:
+        sims.expand("geom_friction")
+    assert str(err.value) == ("model field 'geom_friction' was not expanded: give it in "
+                              "WarpBatch(expand=...) (expanded: ['body_mass'])")
+    with pytest.raises(KeyError) as err:
+        sims.bind("qpos_typo")
+    assert err.value.args[0] == "MuJoCo Warp data has no field 'qpos_typo'"
+    with pytest.raises(ValueError) as err:
+        sims.step([1])
+    assert str(err.value) == "WarpBatch steps every world: ids must be None or all worlds"
+
+
+def test_the_whole_mdp_through_host_copies_is_bit_identical(monkeypatch):
+    """The ``cuda`` path's host copies under the whole MDP (resets with seating and
+    randomisation, delays, pushes, rewards), run on the CPU device: the same observations,
+    rewards and dones as through the zero-copy views, bit for bit."""
+    from hybrid_recovery.sim import warp_batch
+
+    class Mirrored(warp_batch.WarpBatch):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs, mirror=True)
+
+    results = []
+    for mirror in (False, True):
+        if mirror:
+            monkeypatch.setattr(warp_batch, "WarpBatch", Mirrored)
+        cfg = default_config()
+        cfg.num_envs, cfg.num_threads, cfg.seed, cfg.backend = 4, 1, 2, "warp"
+        cfg.curriculum.enabled = False
+        cfg.episode_length_s = 0.06  # a timeout reset within the run
+        env = RecoveryEnv(cfg)
+        assert env.sims.mirror is mirror
+        gen = torch.Generator().manual_seed(1)
+        steps = [env.step(torch.randn(4, 27, generator=gen) * 0.3) for _ in range(5)]
+        results.append(steps)
+    for (obs_a, rew_a, done_a, _), (obs_b, rew_b, done_b, _) in zip(*results, strict=True):
+        assert torch.equal(obs_a["critic"], obs_b["critic"])
+        assert torch.equal(obs_a["policy"], obs_b["policy"])
+        assert torch.equal(rew_a, rew_b) and torch.equal(done_a, done_b)
+    assert any(bool(done.any()) for _, _, done, _ in results[0])
