@@ -1,8 +1,8 @@
 """The push-up from knee-chest to hands and knees under the multi-contact torque QP.
 
-Joint PD cannot do this move: at the best force distribution it needs 65 % of the arm
-limits, and PD does not realise that distribution (the arms take more than their share
-and saturate). :class:`PushUp` runs it at torque level instead
+At the best force distribution this move needs 65 % of the arm limits; joint PD does
+not realise that distribution (the arms take more than their share and saturate).
+:class:`PushUp` runs it at torque level instead
 (:class:`hybrid_recovery.getup.contact_qp.ContactQP`, ``ctrl = τ`` on the torque model,
 every physics step) on the hands, knees and toes:
 
@@ -19,8 +19,6 @@ A named contact of the set bears load while MuJoCo reports it on the floor
 (:func:`hybrid_recovery.getup.contact_map.floor_contacts`). A noisy knee-chest often
 rests on one knee, the other a few millimetres up: whenever a hand or knee is off the
 floor, a landing task lowers its lowest point p_z, p̈°_z = K_l (0 − p_z) − D_l ṗ_z.
-(Waiting for the landing before moving, with the head bearing load meanwhile, was
-tried and lost more starts.)
 """
 
 from __future__ import annotations
