@@ -25,9 +25,10 @@ from hybrid_recovery.cli.main import OMP_WAIT_POLICY
 from hybrid_recovery.training.record import read_scalars
 
 SETTINGS: dict[str, dict[str, object]] = {
-    "5 epochs, fp32": {"num_learning_epochs": 5},
-    "2 epochs, fp32": {"num_learning_epochs": 2},
+    "5 epochs, fp32": {"num_learning_epochs": 5, "mixed_precision": False},
+    "2 epochs, fp32": {"num_learning_epochs": 2, "mixed_precision": False},
     "5 epochs, bf16": {"num_learning_epochs": 5, "mixed_precision": True},
+    "3 epochs, bf16": {"num_learning_epochs": 3, "mixed_precision": True},
 }
 """The compared update settings: label → PPOConfig fields."""
 

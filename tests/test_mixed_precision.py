@@ -8,6 +8,7 @@ import contextlib
 import copy
 import io
 import json
+from dataclasses import asdict
 
 import pytest
 import torch
@@ -56,11 +57,21 @@ def _update(runner, storage, mixed: bool, lr: float) -> tuple[dict, dict]:
 
 
 def test_mixed_precision_reaches_rsl_rl():
-    assert runner_dict(TrainConfig())["algorithm"]["use_mixed_precision"] is False
+    assert runner_dict(TrainConfig())["algorithm"]["use_mixed_precision"] is True  # default
     cfg = TrainConfig()
-    cfg.ppo.mixed_precision = True
+    cfg.ppo.mixed_precision = False
     algorithm = runner_dict(cfg)["algorithm"]
-    assert algorithm["use_mixed_precision"] is True and "mixed_precision" not in algorithm
+    assert algorithm["use_mixed_precision"] is False and "mixed_precision" not in algorithm
+
+
+def test_a_run_saved_before_bf16_resumes_in_float32():
+    """A saved ``train_config`` without ``ppo.mixed_precision`` was trained in float32
+    (the shipped record, the live lineage): it reads as float32, not as today's default."""
+    saved = asdict(TrainConfig())
+    del saved["ppo"]["mixed_precision"]
+    assert train_config_from_dict(saved).ppo.mixed_precision is False
+    saved["ppo"]["mixed_precision"] = True
+    assert train_config_from_dict(saved).ppo.mixed_precision is True
 
 
 def test_bf16_loss_close_to_fp32_on_a_fixed_batch(filled):
@@ -97,21 +108,21 @@ def test_bf16_update_keeps_float32_master_weights(filled):
 def test_options_round_trip_through_config_and_checkpoint(tmp_path):
     cfg = TrainConfig(num_envs=4, iterations=1, save_interval=1, num_threads=1,
                       torch_threads=1, env_overrides=dict(FAST))
-    cfg.ppo.mixed_precision = True
+    cfg.ppo.mixed_precision = False  # not the default
     runner = train(tmp_path, cfg)
-    assert runner.alg.use_mixed_precision is True
+    assert runner.alg.use_mixed_precision is False
     assert torch.get_num_threads() == 1
     saved = json.loads((tmp_path / "config.json").read_text())["train_config"]
-    assert saved["torch_threads"] == 1 and saved["ppo"]["mixed_precision"] is True
+    assert saved["torch_threads"] == 1 and saved["ppo"]["mixed_precision"] is False
     assert train_config_from_dict(saved) == cfg
     meta = load_checkpoint(tmp_path / "latest.pt")["infos"]["meta"]
     assert train_config_from_dict(meta["train_config"]) == cfg
     # a resume keeps the run's precision and takes the thread counts given now
     again = TrainConfig(num_envs=4, iterations=2, num_threads=1, torch_threads=2)
     resumed = train(tmp_path, again, resume=True)
-    assert resumed.alg.use_mixed_precision is True and torch.get_num_threads() == 2
+    assert resumed.alg.use_mixed_precision is False and torch.get_num_threads() == 2
     saved = json.loads((tmp_path / "config.json").read_text())["train_config"]
-    assert saved["torch_threads"] == 2 and saved["ppo"]["mixed_precision"] is True
+    assert saved["torch_threads"] == 2 and saved["ppo"]["mixed_precision"] is False
     torch.set_num_threads(1)
 
 
@@ -153,4 +164,10 @@ def test_cli_passes_precision_and_torch_threads(monkeypatch, tmp_path):
     assert seen["cfg"].ppo.mixed_precision is True
     assert (seen["cfg"].torch_threads, seen["cfg"].num_threads) == (1, 2)
     main(["train", "--run-dir", str(tmp_path)])
-    assert seen["cfg"].ppo.mixed_precision is False and seen["cfg"].torch_threads is None
+    assert seen["cfg"].ppo.mixed_precision is True and seen["cfg"].torch_threads is None
+    main(["train", "--run-dir", str(tmp_path), "--no-mixed-precision"])
+    assert seen["cfg"].ppo.mixed_precision is False
+    main(["train", "--run-dir", str(tmp_path), "--variant", "recovery"])  # the shipped recipe
+    assert seen["cfg"].ppo.mixed_precision is False
+    main(["train", "--run-dir", str(tmp_path), "--variant", "recovery", "--mixed-precision"])
+    assert seen["cfg"].ppo.mixed_precision is True

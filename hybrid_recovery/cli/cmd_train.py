@@ -28,11 +28,11 @@ def _train(args: argparse.Namespace) -> int:
         raise UsageError(err.args[0]) from None
     if args.symmetry:
         cfg.ppo.symmetry = True
-    if args.mixed_precision:
-        cfg.ppo.mixed_precision = True
+    if args.mixed_precision is not None:
+        cfg.ppo.mixed_precision = args.mixed_precision
     given = {name for name, value in settings.items() if value is not None}
     given |= {"variant"} if args.variant else set()
-    given |= {"ppo"} if args.symmetry or args.mixed_precision else set()
+    given |= {"ppo"} if args.symmetry or args.mixed_precision is not None else set()
     run_dir = Path(args.run_dir or f"runs/{variant}")
     train(run_dir, cfg, resume=args.resume, amend=parse_overrides(args.amend),
           force=args.force, given=given)
@@ -65,8 +65,9 @@ def _configure_train(p: argparse.ArgumentParser) -> None:
                    help="start over in a --run-dir that holds a run (its checkpoints, "
                         "settings and logs are removed)")
     p.add_argument("--symmetry", action="store_true", help="left/right mirror augmentation")
-    p.add_argument("--mixed-precision", action="store_true",
-                   help="bf16 autocast for the PPO update (float32 weights and optimiser)")
+    p.add_argument("--mixed-precision", action=argparse.BooleanOptionalAction, default=None,
+                   help="bf16 autocast for the PPO update, float32 weights and optimiser "
+                        "(default on; recovery: off)")
     p.add_argument("--init-std", type=positive, default=None,
                    help="initial action noise std (the paper: 1.0; recovery: 0.5)")
     p.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",

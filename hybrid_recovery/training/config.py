@@ -27,10 +27,15 @@ class PPOConfig:
     use_clipped_value_loss: bool = True
     symmetry: bool = False
     """Left/right mirror data augmentation (rsl-rl's symmetry extension); off as in the paper."""
-    mixed_precision: bool = False
+    mixed_precision: bool = True
     """bf16 autocast on the CPU for the update's forward passes and losses (rsl-rl's
     ``use_mixed_precision``). Weights, gradients and the Adam state stay float32; the
-    rollout's inference stays float32. Beyond the paper."""
+    rollout's inference stays float32. Beyond the paper: it halves the update, and from
+    scratch it learned as float32 did per env step (two seeds, ``research/ab_update.py``,
+    training/README.md "Training throughput"). Its rounding puts noise into PPO's ratio
+    that grows as the action noise σ shrinks (mean |r − 1| 0.065 at σ 0.54): below
+    σ ≈ 0.3 prefer float32 (``--no-mixed-precision``). A run saved without this field
+    trained in float32 and resumes so (:func:`train_config_from_dict`)."""
 
 
 @dataclass
@@ -85,7 +90,8 @@ def train_config_from_dict(data: dict[str, Any]) -> TrainConfig:
         if unknown:
             raise KeyError(f"{where} has unknown keys {unknown} (saved by another version "
                            f"of hybrid_recovery?)")
-    ppo = PPOConfig(**data.pop("ppo", {}))
+    ppo = PPOConfig(**{"mixed_precision": False,  # saved before bf16 existed: float32
+                       **data.pop("ppo", {})})
     if "hidden_dims" in data:
         data["hidden_dims"] = tuple(data["hidden_dims"])
     if "env_overrides" in data:

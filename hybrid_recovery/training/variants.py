@@ -56,11 +56,13 @@ VARIANTS: dict[str, dict[str, Any]] = {
 """Variant name → EnvConfig overrides."""
 
 VARIANT_TRAIN: dict[str, dict[str, Any]] = {
-    "recovery": {"init_std": 0.5, "max_std": 0.6, "save_interval": 25},
+    "recovery": {"init_std": 0.5, "max_std": 0.6, "save_interval": 25,
+                 "ppo.mixed_precision": False},
     "recovery_rises": {"init_std": 0.5, "max_std": 0.6, "save_interval": 25},
 }
 """Variant name → TrainConfig settings other than the defaults (``ppo.<field>`` for PPO);
-absent: the defaults."""
+absent: the defaults. ``recovery`` keeps the float32 update its policy was trained
+with, so that it stays the shipped recipe."""
 
 
 def variant_overrides(name: str) -> dict[str, Any]:
