@@ -131,7 +131,7 @@ def main() -> None:
                  fontsize=10)
     fig.tight_layout()
     args.out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(args.out, dpi=90)
+    fig.savefig(args.out, dpi=72)
     print(json.dumps({"figure": str(args.out)}))
 
 
