@@ -17,17 +17,13 @@ from hybrid_recovery.robot import constants
 from hybrid_recovery.sim.initial_states import seat_single
 
 
-def test_model_controller_moves_to_knee_chest_then_pushes_up_to_hands_and_knees():
-    row = run_trial(make_controller("model"), Scenario("prone", duration=12.0, seed=0))
+def test_model_controller_moves_to_knee_chest_and_stops_there():
+    row = run_trial(make_controller("model"), Scenario("prone", duration=8.0, seed=0))
     info = row["controller_info"]
-    assert info["ground_status"] == "arrived" and info["ground_state"] == "knee_chest"
+    assert info["final_mode"] == "moves" and info["ground_status"] == "arrived"
+    assert info["ground_state"] == "knee_chest"
     assert [m for _, _, m in info["moves"]] == ["tuck from prone", "in knee_chest"]
-    # the push-up starts once knee-chest has settled and ends on hands and knees
-    assert info["final_mode"] == "push_up" and info["push_up_start"] >= info["moves"][-1][0]
-    assert info["hands_and_knees"]
-    # inside the effort limits throughout (the QP's torque rows, not a clip)
-    assert 0.0 < info["push_up_worst_torque_ratio"] <= 1.0 + 1e-9
-    # no model-based rise from there: it does not stand, and it says so by not succeeding
+    # no model-based rise from knee-chest: it does not stand, and it says so by not succeeding
     assert not row["success"] and not row["not_applicable"]
     assert row["peak_torque"] <= 300.0 + 1e-9
 

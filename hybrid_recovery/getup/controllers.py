@@ -3,10 +3,9 @@
 Runs on the torque-controlled H1-2 (``ctrl = τ``, dt 2 ms) with the evaluation runner's
 interface (``name``, ``physics_dt``, ``torque_control``, ``reset``, ``__call__``,
 ``info``): the QP balance controller while it applies, and on the ground the
-contact-state moves to knee-chest, then the push-up to hands and knees on the
-multi-contact torque QP (:class:`hybrid_recovery.getup.push_up.PushUp`), where it stops
-and holds: hands-and-knees → kneeling has no static support, and no dynamic transition
-was found, so no model-based rise from the ground. The ``hybrid`` controller's ground part is
+contact-state moves to knee-chest, where it stops and holds (no model-based rise from the
+ground was found: the push-up to hands and knees saturates the arms, and hands-and-knees
+→ kneeling has no static support). The ``hybrid`` controller's ground part is
 :class:`hybrid_recovery.evaluation.getup_controllers.GroundHybridController`.
 """
 
@@ -19,11 +18,10 @@ import numpy as np
 
 from hybrid_recovery.control.balance_controller import BalanceController
 from hybrid_recovery.control.torque_model import CONTROL_DT
-from hybrid_recovery.getup.move_executor import ARRIVED, GroundMoves, MoveConfig
-from hybrid_recovery.getup.push_up import PushUp, on_hands_and_knees
+from hybrid_recovery.getup.move_executor import GroundMoves, MoveConfig
 from hybrid_recovery.robot import constants
 
-MOVES, QP, PUSH_UP = "moves", "qp", "push_up"
+MOVES, QP = "moves", "qp"
 
 
 @dataclass(frozen=True)
@@ -77,8 +75,7 @@ def move_events(moves: GroundMoves) -> list[tuple[float, str, str]]:
 
 
 class ModelController:
-    """QP balance when up; when down, ground moves to knee-chest, then the push-up to
-    hands and knees (``--controller model``).
+    """QP balance when up, ground moves to knee-chest when down (``--controller model``).
 
     Args:
         config: Settings of the moves; defaults when None.
@@ -91,7 +88,6 @@ class ModelController:
     def __init__(self, config: MoveConfig | None = None) -> None:
         self.balance = BalanceController()
         self.moves = GroundMoves(config)
-        self.push_up = PushUp()
 
     def reset(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         self.balance.reset(model, data)
@@ -111,25 +107,11 @@ class ModelController:
                 return torque
             self.mode = MOVES
             self.moves.reset(model, data)
-        if self.mode == MOVES:
-            torque = self.moves(model, data)
-            if self.moves.status != ARRIVED:
-                return torque
-            self.mode = PUSH_UP  # settled in knee-chest
-            self.push_up_start = round(float(data.time), 3)
-            self.push_up.reset(model, data)
-        self.hands_and_knees = on_hands_and_knees(model, data)[0]
-        return self.push_up(model, data)
+        return self.moves(model, data)
 
     def info(self) -> dict:
-        """What it did; after the push-up, whether its last state was on hands and knees."""
-        ground = self.mode in (MOVES, PUSH_UP)
-        out = {"final_mode": self.mode, "qp_went_down": self.balance.went_down,
-               "moves": move_events(self.moves) if ground else [],
-               "ground_status": self.moves.status if ground else None,
-               "ground_state": self.moves.state if ground else None}
-        if self.mode == PUSH_UP:
-            out["push_up_start"] = self.push_up_start
-            out["push_up_worst_torque_ratio"] = round(self.push_up.worst_ratio, 3)
-            out["hands_and_knees"] = self.hands_and_knees
-        return out
+        ground = self.mode == MOVES
+        return {"final_mode": self.mode, "qp_went_down": self.balance.went_down,
+                "moves": move_events(self.moves) if ground else [],
+                "ground_status": self.moves.status if ground else None,
+                "ground_state": self.moves.state if ground else None}
