@@ -112,7 +112,8 @@ def finish_panel(fig, ax, title: str, xlabel: str, ylabel: str, path: Path) -> N
     ax.set_xlabel(xlabel)
     ax.set_ylabel(ylabel)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    if ax.get_legend_handles_labels()[0]:  # a panel of one unnamed line has no legend
+        ax.legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
