@@ -103,6 +103,25 @@ class QpProblem:
                 self.upper, self.box_lower, self.box_upper)
 
 
+def torque_rows(state: RobotState, g_map: np.ndarray, tau_max: np.ndarray
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The actuated rows τ = M_a q̈ + h_a − G_a ρ = C x + h_a over x = [q̈; ρ] with the
+    bounds −τ_max ≤ τ ≤ τ_max as lo ≤ C x ≤ hi.
+
+    Returns:
+        (C (27, nv + nf), h_a (27,) [N·m], lo (27,), hi (27,)).
+    """
+    c_in = np.hstack([state.mass_matrix[6:], -g_map[6:]])
+    h_a = state.bias[6:]
+    return c_in, h_a, -tau_max - h_a, tau_max - h_a
+
+
+def free_bounds(nv: int, nf: int, max_force: float) -> tuple[np.ndarray, np.ndarray]:
+    """Bounds of x = [q̈ (nv); ρ (nf)] without joint limits: q̈ free, 0 ≤ ρ ≤ max_force."""
+    return (np.concatenate([np.full(nv, -_BIG), np.zeros(nf)]),
+            np.concatenate([np.full(nv, _BIG), np.full(nf, max_force)]))
+
+
 def stack_tasks(tasks: list[Task]) -> tuple[np.ndarray, np.ndarray]:
     """(√w J, √w b) of all tasks stacked, shapes (Σk, nv) and (Σk,): Σ w ‖J q̈ − b‖² is
     ‖(√w J) q̈ − √w b‖²."""
@@ -215,12 +234,9 @@ class WholeBodyQP:
                 eq_rhs.append(-foot.bias_acc - cfg.contact_kd * foot.velocity)
         a_eq, b_eq = np.concatenate(eq_rows), np.concatenate(eq_rhs)
         # Torque rows
-        c_in = np.hstack([state.mass_matrix[6:], -g_map[6:]])
-        h_a = state.bias[6:]
-        lo, hi = -self.tau_max - h_a, self.tau_max - h_a
-        box_lo = np.concatenate([np.full(nv, -_BIG), np.zeros(nf)])
-        box_hi = np.concatenate([np.full(nv, _BIG), np.full(nf, cfg.max_corner_force)])
-        free_lo, free_hi = box_lo.copy(), box_hi.copy()
+        c_in, h_a, lo, hi = torque_rows(state, g_map, self.tau_max)
+        free_lo, free_hi = free_bounds(nv, nf, cfg.max_corner_force)
+        box_lo, box_hi = free_lo.copy(), free_hi.copy()
         horizon = cfg.limit_horizon
         q, qd = state.qpos[7:], state.qvel[6:]
         box_lo[6:nv] = 2.0 * (self.q_lo - q - qd * horizon) / horizon**2

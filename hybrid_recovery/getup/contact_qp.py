@@ -43,7 +43,13 @@ import numpy as np
 import proxsuite
 
 from hybrid_recovery.control.robot_state import RobotState, StateReader
-from hybrid_recovery.control.wbc_qp import Task, pyramid_basis, stack_tasks
+from hybrid_recovery.control.wbc_qp import (
+    Task,
+    free_bounds,
+    pyramid_basis,
+    stack_tasks,
+    torque_rows,
+)
 from hybrid_recovery.getup.contacts import (
     FLOOR_CONTACTS,
     active_points,
@@ -230,11 +236,8 @@ class ContactQP:
         a_eq = np.vstack([np.hstack([state.mass_matrix[:6], -g_map[:6]]),
                           np.hstack([contact_rows, np.zeros((len(contact_rhs), nf))])])
         b_eq = np.concatenate([-state.bias[:6], contact_rhs])
-        c_in = np.hstack([state.mass_matrix[6:], -g_map[6:]])
-        h_a = state.bias[6:]
-        lo, hi = -self.tau_max - h_a, self.tau_max - h_a
-        free_lo = np.concatenate([np.full(nv, -_BIG), np.zeros(nf)])
-        free_hi = np.concatenate([np.full(nv, _BIG), np.full(nf, cfg.max_point_force)])
+        c_in, h_a, lo, hi = torque_rows(state, g_map, self.tau_max)
+        free_lo, free_hi = free_bounds(nv, nf, cfg.max_point_force)
         box_lo, box_hi = free_lo.copy(), free_hi.copy()
         horizon = cfg.limit_horizon
         q, qd = state.qpos[7:], state.qvel[6:]
