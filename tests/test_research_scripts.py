@@ -201,3 +201,39 @@ def test_ab_update_trains_each_setting_once_and_draws(tmp_path, monkeypatch, cap
     table = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| ")]
     assert [row.split(" | ")[0] for row in table[-2:]] == ["| 5 epochs, fp32", "| 2 epochs, fp32"]
     assert (tmp_path / "ab.png").stat().st_size > 0
+
+
+def test_rise_pace_fits_each_pose_and_draws(tmp_path, monkeypatch, capsys):
+    """A level rising 4 per 1000 iterations from 100 on reaches K = 8 at iteration 2100;
+    one that stays at 0 never does."""
+    from torch.utils.tensorboard import SummaryWriter
+
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "config.json").write_text(json.dumps({
+        "env_config": {"rises": {"levels": 8}},
+        "train_config": {"num_envs": 4, "num_steps_per_env": 2}}))
+    writer = SummaryWriter(str(run))
+    for it in range(100, 200):
+        writer.add_scalar("rise_level/sitting", 0.004 * (it - 100), it)
+        writer.add_scalar("rise_level/supine", 0.0, it)
+        writer.add_scalar("pose_stood_up/sitting", 0.5, it)
+        writer.add_scalar("Perf/collection_time", 1.0, it)
+        writer.add_scalar("Perf/learning_time", 0.5, it)
+    writer.close()
+    module = _script("plot_rise_pace")
+    from hybrid_recovery.training.record import load_lineage
+
+    pace = module.rise_pace(load_lineage([run])[0], 8, since=0)
+    assert pace["sitting"]["slope"] == pytest.approx(0.004)
+    assert pace["sitting"]["left"] == pytest.approx(2100 - 199)
+    assert pace["supine"]["left"] == float("inf")
+    with pytest.raises(ValueError, match="fewer than two"):
+        module.rise_pace(load_lineage([run])[0], 8, since=199)
+    monkeypatch.setattr(sys, "argv", ["plot_rise_pace.py", str(run), "--since", "100",
+                                      "--old-pace", "0.0625", "--out", str(tmp_path / "p.png")])
+    module.main()
+    rows = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| s")]
+    assert rows[0].startswith("| sitting | ") and "| 1,901 | 0 M | 0.8 |" in rows[0]
+    assert rows[1].startswith("| supine | ") and "never" in rows[1]
+    assert (tmp_path / "p.png").stat().st_size > 0
