@@ -17,15 +17,41 @@ from hybrid_recovery.robot import constants
 from hybrid_recovery.sim.initial_states import seat_single
 
 
-def test_model_controller_moves_to_knee_chest_and_stops_there():
-    row = run_trial(make_controller("model"), Scenario("prone", duration=8.0, seed=0))
+def test_model_controller_moves_to_knee_chest_pushes_up_and_holds_hands_and_knees():
+    from hybrid_recovery.getup.push_up import on_hands_and_knees
+
+    seen: list[tuple[float, bool]] = []
+    row = run_trial(make_controller("model"), Scenario("prone", duration=15.0, seed=0),
+                    on_sample=lambda model, data, _: seen.append(
+                        (float(data.time), on_hands_and_knees(model, data)[0])))
     info = row["controller_info"]
-    assert info["final_mode"] == "moves" and info["ground_status"] == "arrived"
-    assert info["ground_state"] == "knee_chest"
+    assert info["ground_status"] == "arrived" and info["ground_state"] == "knee_chest"
     assert [m for _, _, m in info["moves"]] == ["tuck from prone", "in knee_chest"]
-    # no model-based rise from knee-chest: it does not stand, and it says so by not succeeding
+    # one push-up, started once knee-chest was reached, ended on hands and knees, inside
+    # the effort limits throughout (the QP's torque rows, not a clip); then held there
+    [push_up] = info["push_ups"]
+    assert push_up["start"] >= info["moves"][-1][0] and push_up["hands_and_knees"]
+    assert 0.0 < push_up["worst_torque_ratio"] <= 1.0 + 1e-9
+    assert info["final_mode"] == "hold" and info["on_hands_and_knees"]
+    # on hands and knees from the check on, still at the end, seconds later
+    done = push_up["start"] + 3.5
+    assert done + 4.0 < seen[-1][0] and all(ok for t, ok in seen if t >= done + 0.02)
+    # no model-based rise from there: it does not stand, and it says so by not succeeding
     assert not row["success"] and not row["not_applicable"]
     assert row["peak_torque"] <= 300.0 + 1e-9
+
+
+def test_model_controller_re_plans_after_a_push_up_that_misses(monkeypatch):
+    """A push-up that does not end on hands and knees hands the robot back to the moves,
+    and after ``max_push_ups`` the moves hold it."""
+    import hybrid_recovery.getup.controllers as controllers
+
+    monkeypatch.setattr(controllers, "on_hands_and_knees", lambda model, data: (False, ""))
+    row = run_trial(controllers.ModelController(max_push_ups=1),
+                    Scenario("prone", duration=12.0, seed=0))
+    info = row["controller_info"]
+    assert [p["hands_and_knees"] for p in info["push_ups"]] == [False]
+    assert info["final_mode"] == "moves" and info["ground_state"] == "knee_chest"
 
 
 def test_model_controller_balances_with_the_qp_when_standing():

@@ -96,9 +96,10 @@ def make_controller(spec: str):
     ``hybrid[:PATH]``.
 
     ``learned`` is the shipped policy (``onnx:shipped``); ``qp`` the QP balance controller
-    alone; ``model`` the model-based half (the QP when up, ground moves when down);
-    ``hybrid`` ground moves to knee-chest, then the policy (the shipped one without a
-    path) under the capturability supervisor with the QP.
+    alone; ``model`` the model-based half (the QP when up; when down, ground moves to
+    knee-chest, the push-up to hands and knees, held there); ``hybrid`` ground moves to
+    knee-chest, then the policy (the shipped one without a path) under the capturability
+    supervisor with the QP.
 
     Raises:
         ValueError: an unknown spec, a missing path, or ``learned`` with no shipped policy.

@@ -2,11 +2,14 @@
 
 Runs on the torque-controlled H1-2 (``ctrl = τ``, dt 2 ms) with the evaluation runner's
 interface (``name``, ``physics_dt``, ``torque_control``, ``reset``, ``__call__``,
-``info``): the QP balance controller while it applies, and on the ground the
-contact-state moves to knee-chest, where it stops and holds (no model-based rise from the
-ground was found: the push-up to hands and knees saturates the arms, and hands-and-knees
-→ kneeling has no static support). The ``hybrid`` controller's ground part is
-:class:`hybrid_recovery.evaluation.getup_controllers.GroundHybridController`.
+``info``): the QP balance controller while it applies; on the ground the contact-state
+moves to knee-chest, the push-up to hands and knees on the multi-contact torque QP
+(:class:`hybrid_recovery.getup.push_up.PushUp`), then joint PD holding the
+hands-and-knees keyframe (statically balanced, worst torque ratio 0.05), where it stops:
+hands-and-knees → kneeling has no static support and no dynamic transition was found,
+so there is no model-based rise from the ground. A push-up that does not end on hands
+and knees re-plans the moves from the state it left. The ``hybrid`` controller's ground
+part is :class:`hybrid_recovery.evaluation.getup_controllers.GroundHybridController`.
 """
 
 from __future__ import annotations
@@ -17,11 +20,15 @@ import mujoco
 import numpy as np
 
 from hybrid_recovery.control.balance_controller import BalanceController
+from hybrid_recovery.control.policy_controller import pd_torque
 from hybrid_recovery.control.torque_model import CONTROL_DT
-from hybrid_recovery.getup.move_executor import GroundMoves, MoveConfig
+from hybrid_recovery.getup.keyframes import KEYFRAMES
+from hybrid_recovery.getup.move_executor import ARRIVED, GroundMoves, MoveConfig
+from hybrid_recovery.getup.push_up import PushUp, PushUpConfig, on_hands_and_knees
 from hybrid_recovery.robot import constants
+from hybrid_recovery.robot.limits import SafetyLimits
 
-MOVES, QP = "moves", "qp"
+MOVES, QP, PUSH_UP, HOLD = "moves", "qp", "push_up", "hold"
 
 
 @dataclass(frozen=True)
@@ -75,28 +82,46 @@ def move_events(moves: GroundMoves) -> list[tuple[float, str, str]]:
 
 
 class ModelController:
-    """QP balance when up, ground moves to knee-chest when down (``--controller model``).
+    """QP balance when up; when down, ground moves to knee-chest, the push-up to hands and
+    knees, then holding there (``--controller model``).
 
     Args:
         config: Settings of the moves; defaults when None.
+        push_up: Settings of the push-up; defaults when None.
+        push_up_settle: After the push-up's smoothstep, the QP holds its end this long
+            before the hands-and-knees check [s].
+        max_push_ups: Push-ups tried per episode; after the last one that misses, the
+            moves hold knee-chest (or wherever they end).
     """
 
     name = "model"
     physics_dt = CONTROL_DT
     torque_control = True
 
-    def __init__(self, config: MoveConfig | None = None) -> None:
+    def __init__(self, config: MoveConfig | None = None, push_up: PushUpConfig | None = None,
+                 push_up_settle: float = 0.5, max_push_ups: int = 2) -> None:
         self.balance = BalanceController()
         self.moves = GroundMoves(config)
+        self.push_up = PushUp(push_up)
+        self.push_up_settle, self.max_push_ups = push_up_settle, max_push_ups
 
     def reset(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         self.balance.reset(model, data)
         self.move_log: list[tuple[float, str, str]] = []
+        lo, hi = SafetyLimits.from_model(model).q_ref_bounds(self.moves.config.range_factor)
+        self._hold_target = np.clip(KEYFRAMES[self.push_up.config.keyframe], lo, hi)
+        self._qadr = np.array([model.joint(n).qposadr[0] for n in constants.JOINT_NAMES])
+        self._dadr = np.array([model.joint(n).dofadr[0] for n in constants.JOINT_NAMES])
+        self.push_ups: list[dict] = []
+        self.on_hands_and_knees = False
         if self.balance.assess(model, data).applicable:
             self.mode = QP
         else:
-            self.mode = MOVES
-            self.moves.reset(model, data)
+            self._start_moves(model, data)
+
+    def _start_moves(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        self.mode = MOVES
+        self.moves.reset(model, data)
 
     def __call__(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
         """τ (27,) [N·m]."""
@@ -105,13 +130,39 @@ class ModelController:
             diag = self.balance.diagnostics
             if diag is None or diag.applicable:
                 return torque
-            self.mode = MOVES
-            self.moves.reset(model, data)
-        return self.moves(model, data)
+            self._start_moves(model, data)
+        if self.mode == MOVES:
+            torque = self.moves(model, data)
+            if self.moves.status != ARRIVED or len(self.push_ups) >= self.max_push_ups:
+                return torque
+            self.mode = PUSH_UP  # settled in knee-chest
+            self.push_up.reset(model, data)
+            self.push_ups.append({"start": round(float(data.time), 3)})
+        if self.mode == PUSH_UP:
+            elapsed = float(data.time) - self.push_ups[-1]["start"]
+            if elapsed < self.push_up.config.duration + self.push_up_settle - 1e-9:
+                return self.push_up(model, data)
+            arrived = on_hands_and_knees(model, data)[0]
+            self.push_ups[-1].update(hands_and_knees=arrived,
+                                     worst_torque_ratio=round(self.push_up.worst_ratio, 3))
+            if not arrived:
+                self._start_moves(model, data)
+                return self.moves(model, data)
+            self.mode = HOLD
+            self._next_check = float(data.time)
+        if float(data.time) >= self._next_check - 1e-9:  # still there? (read every 0.25 s)
+            self.on_hands_and_knees = on_hands_and_knees(model, data)[0]
+            self._next_check = float(data.time) + 0.25
+        return pd_torque(self._hold_target, data.qpos[self._qadr], data.qvel[self._dadr])
 
     def info(self) -> dict:
-        ground = self.mode == MOVES
+        """What it did: the final mode, the moves' events and end, each push-up's start,
+        whether it ended on hands and knees and its worst torque ratio; while holding,
+        whether the robot was on hands and knees at the last check (every 0.25 s)."""
+        ground = self.mode != QP
         return {"final_mode": self.mode, "qp_went_down": self.balance.went_down,
                 "moves": move_events(self.moves) if ground else [],
                 "ground_status": self.moves.status if ground else None,
-                "ground_state": self.moves.state if ground else None}
+                "ground_state": self.moves.state if ground else None,
+                "push_ups": list(self.push_ups),
+                "on_hands_and_knees": self.on_hands_and_knees if self.mode == HOLD else None}
