@@ -159,7 +159,7 @@ def test_bad_recordings_and_settings_are_refused_verbatim(tmp_path):
         RiseStarts(RiseConfig(files=(str(good),), levels=32), NQ, NV)
     assert str(err.value) == (f"rise recording {good}: rises.levels = 32 leaves stretches "
                               f"{list(range(0, 32, 2))} without a sample; use fewer levels")
-    for bad in ({"levels": 0}, {"window": 0}, {"advance": 0.3}, {"retreat": -0.1}):
+    for bad in ({"levels": 0}, {"window": 0}, {"advance": 0.1}, {"retreat": -0.1}):
         with pytest.raises(ValueError) as err:
             RiseStarts(RiseConfig(**{"files": (str(good),), **bad}), NQ, NV)
         cfg = RiseConfig(**bad)
