@@ -128,10 +128,14 @@ def test_no_rise_level_rises_holding_its_joints(run, monkeypatch, tmp_path):
              pose=np.array("supine"))
     module = _script("probe_rise_levels")
     monkeypatch.setattr(module, "first_episodes",
-                        lambda env, actor, first=module.first_episodes: first(env, Holder(env)))
+                        lambda env, actor, watch=None, first=module.first_episodes:
+                        first(env, Holder(env), watch))
     out = module.probe(run, tmp_path / "supine.npz", 2, EPISODES, 3, seconds=3.0)
     assert out["pose"] == "supine" and out["episodes"] == EPISODES
     assert out["stood_up_by_level"] == {"0/2": 0.0, "1/2": 0.0, "2/2": 0.0}
+    # lying on its back holding its joints: chest up from the start, never turned over
+    assert out["chest_up_at_start_by_level"] == {"0/2": 1.0, "1/2": 1.0, "2/2": 1.0}
+    assert out["turned_chest_down_by_level"] == {"0/2": 0.0, "1/2": 0.0, "2/2": 0.0}
 
 
 def test_assisted_pose_probe_pulls_at_each_fraction_and_never_anneals(run, monkeypatch):

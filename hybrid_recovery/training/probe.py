@@ -3,6 +3,7 @@ from chosen start states (the research scripts build on these)."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -86,13 +87,20 @@ def start_episodes(env: RecoveryEnv) -> TensorDict:
     return env.get_observations()
 
 
-def first_episodes(env: RecoveryEnv, actor: torch.nn.Module) -> tuple[np.ndarray, np.ndarray]:
+def first_episodes(env: RecoveryEnv, actor: torch.nn.Module,
+                   watch: Callable[[np.ndarray], None] | None = None
+                   ) -> tuple[np.ndarray, np.ndarray]:
     """Resets every env and plays the deterministic ``actor`` until each has ended one
-    episode. Returns (stood up (N,) bool, start pose index into ``POSES`` (N,))."""
+    episode. ``watch(live)``, if given, sees the env after the reset and after every
+    step, ``live`` (N,) bool marking the envs whose state is still their first episode's
+    (an env reset by the step is not). Returns (stood up (N,) bool, start pose index into
+    ``POSES`` (N,))."""
     n = env.num_envs
     obs = start_episodes(env)
     done, stood = np.zeros(n, bool), np.zeros(n, bool)
     pose = env.start_pose.copy()
+    if watch is not None:
+        watch(np.ones(n, bool))
     while not done.all():
         with torch.no_grad():
             obs, _, dones, extras = env.step(actor(obs))
@@ -100,4 +108,6 @@ def first_episodes(env: RecoveryEnv, actor: torch.nn.Module) -> tuple[np.ndarray
         first = ~done[ended]
         stood[ended[first]] = up[first]
         done[ended] = True
+        if watch is not None:
+            watch(~done)
     return stood, pose
