@@ -9,6 +9,8 @@ iterations). ``--old-pace`` draws, for comparison, a frontier moving that share 
 iterations (the blend bridges of docs/experiments.md §4–6: 1/16). Prints a Markdown table
 of each pose's level, pace and the iterations, env steps and hours to K at that pace
 (hours: of one process, at the run's mean seconds per iteration since ``--since``).
+Levels are read as logged, over the run's current ``rises.levels``: where a run amended
+``rises.levels``, start ``--since`` after the amendment.
 
     python research/plot_rise_pace.py runs/rises_fork --since 12651 --old-pace 0.0625 \\
         --out rise_pace.png
@@ -40,9 +42,11 @@ def rise_pace(scalars: dict[str, tuple[np.ndarray, np.ndarray]], levels: int, si
               ) -> dict[str, dict[str, float]]:
     """Per pose with ``rise_level/<pose>``: ``first`` (its first logged iteration), ``now``
     (the mean level k over its last 25 logged iterations), ``slope`` [levels per
-    iteration] of a least-squares line through (iteration, k) from ``since`` on, and
+    iteration] of a least-squares line through (iteration, k) from ``since`` on,
     ``left``: iterations from the last one to k = K at that slope (inf when it does not
-    rise; 0 once at K).
+    rise; 0 once at K), ``top`` (the highest level logged) and ``top_since`` (the first
+    iteration that logged it): a level that stalls shows as a ``top_since`` far back,
+    which the straight line does not.
 
     Raises:
         ValueError: no rise levels logged, or fewer than two iterations from ``since``.
@@ -61,8 +65,10 @@ def rise_pace(scalars: dict[str, tuple[np.ndarray, np.ndarray]], levels: int, si
         now = float(level[-25:].mean())
         at_end = (levels - intercept) / slope if slope > 0 else math.inf
         left = 0.0 if now >= levels else max(at_end - float(steps.max()), 0.0)
+        top = float(level.max())
         out[pose] = {"first": int(steps.min()), "now": now, "slope": float(slope),
-                     "left": left}
+                     "left": left, "top": top,
+                     "top_since": int(steps[np.argmax(level >= top - 1e-9)])}
     return out
 
 
@@ -132,15 +138,16 @@ def main() -> None:
 
     print(f"iterations {start}–{max(int(scalars[f'rise_level/{p}'][0].max()) for p in pace)}; "
           f"{seconds:.1f} s per iteration of one process since {args.since}")
-    print("| pose | level now | pace | iterations to K at that pace | env steps | hours |")
-    print("|---|---|---|---|---|---|")
+    print("| pose | level now | highest, first reached at | pace | iterations to K at that pace "
+          "| env steps | hours |")
+    print("|---|---|---|---|---|---|---|")
     for pose, row in pace.items():
         left = row["left"]
         tail = ("never | – | –" if math.isinf(left) else
                 f"{left:,.0f} | {left * per_iteration / 1e6:,.0f} M | "
                 f"{left * seconds / 3600:,.1f}")
-        print(f"| {pose} | {row['now']:.2f} / {levels} | {row['slope'] * 1000:.2f} levels "
-              f"per 1000 it | {tail} |")
+        print(f"| {pose} | {row['now']:.2f} / {levels} | {row['top']:.2f} at {row['top_since']} | "
+              f"{row['slope'] * 1000:.2f} levels per 1000 it | {tail} |")
     print(f"wrote {args.out}")
 
 

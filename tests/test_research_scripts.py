@@ -232,12 +232,15 @@ def test_rise_pace_fits_each_pose_and_draws(tmp_path, monkeypatch, capsys):
     assert pace["sitting"]["slope"] == pytest.approx(0.004)
     assert pace["sitting"]["left"] == pytest.approx(2100 - 199)
     assert pace["supine"]["left"] == float("inf")
+    assert pace["sitting"]["top"] == pytest.approx(0.396) and pace["sitting"]["top_since"] == 199
+    assert pace["supine"]["top"] == 0.0 and pace["supine"]["top_since"] == 100
     with pytest.raises(ValueError, match="fewer than two"):
         module.rise_pace(load_lineage([run])[0], 8, since=199)
     monkeypatch.setattr(sys, "argv", ["plot_rise_pace.py", str(run), "--since", "100",
                                       "--old-pace", "0.0625", "--out", str(tmp_path / "p.png")])
     module.main()
     rows = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| s")]
-    assert rows[0].startswith("| sitting | ") and "| 1,901 | 0 M | 0.8 |" in rows[0]
+    assert rows[0].startswith("| sitting | ") and "| 0.40 at 199 | " in rows[0]
+    assert "| 1,901 | 0 M | 0.8 |" in rows[0]
     assert rows[1].startswith("| supine | ") and "never" in rows[1]
     assert (tmp_path / "p.png").stat().st_size > 0
