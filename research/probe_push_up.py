@@ -30,13 +30,13 @@ from hybrid_recovery.getup.keyframes import KEYFRAMES
 from hybrid_recovery.getup.push_up import PushUp, PushUpConfig, on_hands_and_knees
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.limits import SafetyLimits
+from hybrid_recovery.robot.mjcf import joint_addresses
 
 
 def _trial(model: mujoco.MjModel, seed: int, controller: str, duration: float,
            hold: float) -> dict:
     data = handover_start(model, "knee_chest", np.random.default_rng(seed))
-    qadr = np.array([model.joint(n).qposadr[0] for n in constants.JOINT_NAMES])
-    dadr = np.array([model.joint(n).dofadr[0] for n in constants.JOINT_NAMES])
+    qadr, dadr = joint_addresses(model)
     lo, hi = SafetyLimits.from_model(model).q_ref_bounds(0.9)
     q0, q1 = data.qpos[qadr].copy(), np.clip(KEYFRAMES["hands_knees"], lo, hi)
     push_up = PushUp(PushUpConfig(duration=duration))

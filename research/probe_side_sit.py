@@ -39,6 +39,7 @@ from hybrid_recovery.getup.feasibility import static_feasibility
 from hybrid_recovery.getup.margins import margins_along, summarise
 from hybrid_recovery.getup.single_move import SingleMove
 from hybrid_recovery.robot import constants
+from hybrid_recovery.robot.mjcf import joint_addresses
 
 _KNEES_TOES = ("left_knee", "right_knee", "left_toes", "right_toes")
 _HANDS = ("left_hand", "right_hand")
@@ -170,7 +171,7 @@ def main() -> None:
         single = SingleMove("probe_side_sit")
         samples = margins_along(model, data, single, timeout=120.0)
         target = single.q_ref.copy()
-        qadr = np.array([model.joint(n).qposadr[0] for n in constants.JOINT_NAMES])
+        qadr = joint_addresses(model)[0]
         for _ in range(int(round(1.0 / model.opt.timestep))):
             data.ctrl[:] = pd_torque(target, data.qpos[qadr], data.qvel[qadr - 1])
             mujoco.mj_step(model, data)

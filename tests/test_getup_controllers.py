@@ -51,6 +51,7 @@ def test_model_controller_re_plans_after_a_push_up_that_misses(monkeypatch):
                     Scenario("prone", duration=12.0, seed=0))
     info = row["controller_info"]
     assert [p["hands_and_knees"] for p in info["push_ups"]] == [False]
+    assert [m for _, _, m in info["moves"]][:2] == ["tuck from prone", "in knee_chest"]
     assert info["final_mode"] == "moves" and info["ground_state"] == "knee_chest"
 
 

@@ -25,6 +25,7 @@ from hybrid_recovery.observation import projected_gravity
 from hybrid_recovery.policy import resolve_policy
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.limits import SafetyLimits
+from hybrid_recovery.robot.mjcf import joint_addresses
 from hybrid_recovery.sim.initial_states import quat_from_euler, quat_mul, seat_single
 
 
@@ -57,8 +58,7 @@ def handover_start(model: mujoco.MjModel, state: str, rng: np.random.Generator,
                          f"{sorted(HANDOVER_STATES)}")
     spec = HANDOVER_STATES[state]
     lo, hi = SafetyLimits.from_model(model).q_ref_bounds(0.9)
-    qadr = np.array([model.joint(n).qposadr[0] for n in constants.JOINT_NAMES])
-    dadr = np.array([model.joint(n).dofadr[0] for n in constants.JOINT_NAMES])
+    qadr, dadr = joint_addresses(model)
     target = np.clip(KEYFRAMES[spec.keyframe] + rng.uniform(-0.1, 0.1, 27) * noise, lo, hi)
     data = mujoco.MjData(model)
     data.qpos[qadr] = target

@@ -31,6 +31,7 @@ from hybrid_recovery.getup.keyframes import (
 )
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.limits import SafetyLimits
+from hybrid_recovery.robot.mjcf import joint_addresses
 from hybrid_recovery.robot.urdf import urdf_from_mjmodel
 
 SITTING_KNEES_BENT = _symmetric((0.0, -2.1, 0.0, 2.0, 0.45, 0.03), 0.0,
@@ -119,7 +120,7 @@ class ContactIk:
         self.lo, self.hi, self.range_factor = lo, hi, range_factor
         for name, a, b in zip(constants.JOINT_NAMES, lo, hi, strict=True):
             self.robot.set_joint_limits(name, float(a), float(b))
-        self._qadr = np.array([model.joint(n).qposadr[0] for n in constants.JOINT_NAMES])
+        self._qadr = joint_addresses(model)[0]
 
     def solve(self, keyframe: ContactKeyframe, iterations: int = 300) -> IkResult:
         """Places ``keyframe``'s contacts on the floor near its posture."""

@@ -27,6 +27,7 @@ from hybrid_recovery.getup.move_executor import ARRIVED, GroundMoves, MoveConfig
 from hybrid_recovery.getup.push_up import PushUp, PushUpConfig, on_hands_and_knees
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.limits import SafetyLimits
+from hybrid_recovery.robot.mjcf import joint_addresses
 
 MOVES, QP, PUSH_UP, HOLD = "moves", "qp", "push_up", "hold"
 
@@ -110,8 +111,7 @@ class ModelController:
         self.move_log: list[tuple[float, str, str]] = []
         lo, hi = SafetyLimits.from_model(model).q_ref_bounds(self.moves.config.range_factor)
         self._hold_target = np.clip(KEYFRAMES[self.push_up.config.keyframe], lo, hi)
-        self._qadr = np.array([model.joint(n).qposadr[0] for n in constants.JOINT_NAMES])
-        self._dadr = np.array([model.joint(n).dofadr[0] for n in constants.JOINT_NAMES])
+        self._qadr, self._dadr = joint_addresses(model)
         self.push_ups: list[dict] = []
         self.on_hands_and_knees = False
         if self.balance.assess(model, data).applicable:
@@ -145,7 +145,8 @@ class ModelController:
             arrived = on_hands_and_knees(model, data)[0]
             self.push_ups[-1].update(hands_and_knees=arrived,
                                      worst_torque_ratio=round(self.push_up.worst_ratio, 3))
-            if not arrived:
+            if not arrived:  # re-plan; the earlier moves' events stay in the log
+                self.move_log += move_events(self.moves)
                 self._start_moves(model, data)
                 return self.moves(model, data)
             self.mode = HOLD
@@ -161,7 +162,7 @@ class ModelController:
         whether the robot was on hands and knees at the last check (every 0.25 s)."""
         ground = self.mode != QP
         return {"final_mode": self.mode, "qp_went_down": self.balance.went_down,
-                "moves": move_events(self.moves) if ground else [],
+                "moves": self.move_log + move_events(self.moves) if ground else [],
                 "ground_status": self.moves.status if ground else None,
                 "ground_state": self.moves.state if ground else None,
                 "push_ups": list(self.push_ups),

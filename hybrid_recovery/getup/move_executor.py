@@ -20,8 +20,8 @@ from hybrid_recovery.control.policy_controller import pd_torque
 from hybrid_recovery.getup.ground_state import GROUND_STATES, classify, read_ground_pose
 from hybrid_recovery.getup.keyframes import KEYFRAMES, mirror
 from hybrid_recovery.getup.moves import MOVES, NEXT_MOVE, Move
-from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.limits import SafetyLimits
+from hybrid_recovery.robot.mjcf import joint_addresses
 
 MOVING, ARRIVED, STUCK = "moving", "arrived", "stuck"
 
@@ -74,8 +74,7 @@ class GroundMoves:
         """Classifies the start state and plans the first move."""
         limits = SafetyLimits.from_model(model)
         self._lo, self._hi = limits.q_ref_bounds(self.config.range_factor)
-        self._qadr = np.array([model.joint(n).qposadr[0] for n in constants.JOINT_NAMES])
-        self._dadr = np.array([model.joint(n).dofadr[0] for n in constants.JOINT_NAMES])
+        self._qadr, self._dadr = joint_addresses(model)
         self.events = []
         self.moves_tried = 0
         self.move: Move | None = None

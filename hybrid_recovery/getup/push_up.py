@@ -36,6 +36,7 @@ from hybrid_recovery.getup.ground_state import read_ground_pose
 from hybrid_recovery.getup.keyframes import KEYFRAMES
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.limits import SafetyLimits
+from hybrid_recovery.robot.mjcf import joint_addresses
 
 HANDS_KNEES_TOES = ("left_hand", "right_hand", "left_knee", "right_knee", "left_toes",
                     "right_toes")
@@ -116,7 +117,7 @@ class PushUp:
         """Starts the move from ``data``'s state."""
         cfg = self.config
         self.qp = ContactQP(model, cfg.qp)
-        self._qadr = np.array([model.joint(n).qposadr[0] for n in constants.JOINT_NAMES])
+        self._qadr = joint_addresses(model)[0]
         self._pelvis = model.body(constants.PELVIS_BODY).id
         lo, hi = SafetyLimits.from_model(model).q_ref_bounds(cfg.range_factor)
         self._q0 = data.qpos[self._qadr].copy()

@@ -126,6 +126,13 @@ def default_qpos(model: mujoco.MjModel) -> np.ndarray:
     return qpos
 
 
+def joint_addresses(model: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:
+    """The qpos and qvel addresses of the 27 actuated joints, in ``constants.JOINT_NAMES``
+    (motor) order, looked up by name (any H1-2 model): (qadr (27,), dadr (27,)) int."""
+    joints = [model.joint(name) for name in constants.JOINT_NAMES]
+    return (np.array([j.qposadr[0] for j in joints]), np.array([j.dofadr[0] for j in joints]))
+
+
 def _add_floor(spec: mujoco.MjSpec) -> None:
     """Adds the infinite ground plane z = 0 (collides with robot geoms, not itself)."""
     spec.worldbody.add_geom(
