@@ -11,6 +11,7 @@ from hybrid_recovery.evaluation.getup_record import record_rises
 from hybrid_recovery.evaluation.handover_map import handover_map, handover_start
 from hybrid_recovery.getup.ground_state import classify, read_ground_pose
 from hybrid_recovery.policy import is_shipped
+from hybrid_recovery.robot.limits import SafetyLimits
 from hybrid_recovery.sim.initial_states import POSES
 
 
@@ -28,6 +29,11 @@ def test_record_keeps_a_successful_rise_with_its_phases_and_contacts(tmp_path):
     # the QP may take over from the policy before the success criterion ends the trial
     assert phases in (["settle", "tuck/knee_chest", "policy"],
                       ["settle", "tuck/knee_chest", "policy", "qp"])
+    # the moves' joint targets, exactly where the moves act, within the 0.9× ranges
+    moving = np.array(["/" in p for p in rec["phase"]])
+    assert np.isfinite(rec["target"][moving]).all() and np.isnan(rec["target"][~moving]).all()
+    lo, hi = SafetyLimits.from_model(load_torque_model()).q_ref_bounds(0.9)
+    assert ((rec["target"][moving] >= lo - 1e-9) & (rec["target"][moving] <= hi + 1e-9)).all()
     bodies = rec["contact_bodies"].tolist()
     knee = bodies.index("left_knee_link")
     at_handover = rec["phase"].tolist().index("policy")

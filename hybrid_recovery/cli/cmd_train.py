@@ -30,7 +30,10 @@ def _train(args: argparse.Namespace) -> int:
         cfg.ppo.symmetry = True
     if args.mixed_precision is not None:
         cfg.ppo.mixed_precision = args.mixed_precision
+    if args.teacher_lr is not None:
+        cfg.teacher.learning_rate = args.teacher_lr
     given = {name for name, value in settings.items() if value is not None}
+    given |= {"teacher"} if args.teacher_lr is not None else set()
     given |= {"variant"} if args.variant else set()
     given |= {"ppo"} if args.symmetry or args.mixed_precision is not None else set()
     run_dir = Path(args.run_dir or f"runs/{variant}")
@@ -76,6 +79,10 @@ def _configure_train(p: argparse.ArgumentParser) -> None:
                    help="with --resume: change the run's saved settings from now on, e.g. "
                         "ppo.entropy_coef=0.001 train.max_std=0.4 rewards.w_cp=0 (kept in "
                         "config.json)")
+    p.add_argument("--teacher-lr", type=positive, default=None,
+                   help="imitation of the recorded ground moves after each PPO update: the "
+                        "Adam step size lr0, annealed to 0 over teacher.anneal_iterations "
+                        "updates (needs rises.files with targets; default off)")
     p.add_argument("--max-std", type=positive, default=None,
                    help="upper bound of the action noise std (default: unbounded; "
                         "recovery: 0.6)")

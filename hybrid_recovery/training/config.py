@@ -39,6 +39,23 @@ class PPOConfig:
 
 
 @dataclass
+class TeacherConfig:
+    """Imitation of the recorded ground moves after each PPO update
+    (:mod:`hybrid_recovery.training.teacher`; beyond the paper, off by default). Its
+    states and actions come from the run's ``rises.files``, which must then hold the
+    moves' joint targets."""
+
+    learning_rate: float = 0.0
+    """lr₀, the Adam step size of the first update's teacher steps; 0: off (the paper)."""
+    anneal_iterations: int = 500
+    """PPO updates over which the step size falls linearly from lr₀ to zero."""
+    steps: int = 4
+    """Adam steps per PPO update."""
+    batch_size: int = 2048
+    """Recorded states per step, drawn uniformly with replacement."""
+
+
+@dataclass
 class TrainConfig:
     """A training run."""
 
@@ -70,6 +87,7 @@ class TrainConfig:
     device: str = "cpu"
     """``cpu``, or ``cuda`` for MuJoCo Warp and the learner on the process's GPU."""
     ppo: PPOConfig = field(default_factory=PPOConfig)
+    teacher: TeacherConfig = field(default_factory=TeacherConfig)
     env_overrides: dict[str, Any] = field(default_factory=dict)
     """Dotted EnvConfig overrides applied after the variant's."""
 
@@ -84,19 +102,22 @@ def train_config_from_dict(data: dict[str, Any]) -> TrainConfig:
         ValueError: a removed environment option set away from its neutral value.
     """
     data = dict(data)
-    for keys, cls, where in ((set(data) - {"ppo"}, TrainConfig, "train_config"),
-                             (set(data.get("ppo", {})), PPOConfig, "train_config.ppo")):
+    for keys, cls, where in ((set(data) - {"ppo", "teacher"}, TrainConfig, "train_config"),
+                             (set(data.get("ppo", {})), PPOConfig, "train_config.ppo"),
+                             (set(data.get("teacher", {})), TeacherConfig,
+                              "train_config.teacher")):
         unknown = sorted(keys - {f.name for f in fields(cls)})
         if unknown:
             raise KeyError(f"{where} has unknown keys {unknown} (saved by another version "
                            f"of hybrid_recovery?)")
     ppo = PPOConfig(**{"mixed_precision": False,  # saved before bf16 existed: float32
                        **data.pop("ppo", {})})
+    teacher = TeacherConfig(**data.pop("teacher", {}))
     if "hidden_dims" in data:
         data["hidden_dims"] = tuple(data["hidden_dims"])
     if "env_overrides" in data:
         data["env_overrides"] = drop_removed(data["env_overrides"])
-    return TrainConfig(ppo=ppo, **data)
+    return TrainConfig(ppo=ppo, teacher=teacher, **data)
 
 
 AMENDABLE = ("max_std", "save_interval", "keep_checkpoints", "num_steps_per_env")
@@ -106,15 +127,17 @@ networks' shapes or the run's identity."""
 
 def amend_train_config(cfg: TrainConfig, changes: dict[str, Any]) -> TrainConfig:
     """``cfg`` with ``changes`` applied: ``ppo.<field>`` keys set PPO hyperparameters,
-    ``train.<field>`` keys the :data:`AMENDABLE` TrainConfig fields (both checked against
-    the field's declared type), every other key is a dotted EnvConfig override (checked
-    when the env config is built).
+    ``teacher.<field>`` the teacher's settings, ``train.<field>`` keys the
+    :data:`AMENDABLE` TrainConfig fields (all checked against the field's declared type),
+    every other key is a dotted EnvConfig override (checked when the env config is built).
 
     Raises:
-        KeyError: naming an unknown PPO field or a TrainConfig field that cannot change.
+        KeyError: naming an unknown PPO or teacher field or a TrainConfig field that cannot
+            change.
         ValueError: ``config key 'ppo.<field>' must be ..., got ...``.
     """
     ppo = asdict(cfg.ppo)
+    teacher = asdict(cfg.teacher)
     env = dict(cfg.env_overrides)
     train: dict[str, Any] = {}
     for key, value in changes.items():
@@ -129,9 +152,15 @@ def amend_train_config(cfg: TrainConfig, changes: dict[str, Any]) -> TrainConfig
             if name not in ppo:
                 raise KeyError(f"unknown PPO setting '{name}'; known: {sorted(ppo)}")
             ppo[name] = checked_value(key, value, get_type_hints(PPOConfig)[name])
+        elif key.startswith("teacher."):
+            name = key.removeprefix("teacher.")
+            if name not in teacher:
+                raise KeyError(f"unknown teacher setting '{name}'; known: {sorted(teacher)}")
+            teacher[name] = checked_value(key, value, get_type_hints(TeacherConfig)[name])
         else:
             env[key] = value
-    return replace(cfg, ppo=PPOConfig(**ppo), env_overrides=env, **train)
+    return replace(cfg, ppo=PPOConfig(**ppo), teacher=TeacherConfig(**teacher),
+                   env_overrides=env, **train)
 
 
 def runner_dict(cfg: TrainConfig) -> dict[str, Any]:
@@ -139,7 +168,8 @@ def runner_dict(cfg: TrainConfig) -> dict[str, Any]:
     ppo = asdict(cfg.ppo)
     symmetry = ppo.pop("symmetry")
     ppo["use_mixed_precision"] = ppo.pop("mixed_precision")
-    algorithm: dict[str, Any] = {"class_name": "PPO", **ppo}
+    algorithm: dict[str, Any] = {"class_name": "hybrid_recovery.training.teacher:TeacherPPO"
+                                 if cfg.teacher.learning_rate > 0.0 else "PPO", **ppo}
     if symmetry:
         algorithm["symmetry_cfg"] = {
             "use_data_augmentation": True, "use_mirror_loss": False,

@@ -35,6 +35,7 @@ from hybrid_recovery.training.config import (
 )
 from hybrid_recovery.training.distributed import Rank, process_rank
 from hybrid_recovery.training.record import hardware
+from hybrid_recovery.training.teacher import Teacher, TeacherPPO, make_teacher
 from hybrid_recovery.training.variants import variant_overrides
 
 
@@ -51,6 +52,11 @@ class RecoveryRunner(OnPolicyRunner):
         self.segments = [{"iteration": 0, "hardware": hardware()}]
         self._clock = time.time()
 
+    @property
+    def teacher(self) -> Teacher | None:
+        """The imitation teacher, when the run has one (:mod:`~.teacher`)."""
+        return getattr(self.alg, "teacher", None)
+
     def save(self, path: str, infos: dict | None = None) -> None:
         saved = self.alg.save()
         saved["iter"] = self.current_learning_iteration
@@ -65,6 +71,7 @@ class RecoveryRunner(OnPolicyRunner):
                           "assist": self.env.assist.state_dict(),
                           "bridge": self.env.bridge.state_dict(),
                           "rises": self.env.rises.state_dict(),
+                          "teacher": self.teacher.state_dict() if self.teacher else None,
                           "env_steps": env_steps, "compute_time_s": self.compute_s,
                           "segments": self.segments}
         atomic_save(saved, path)
@@ -86,6 +93,8 @@ class RecoveryRunner(OnPolicyRunner):
             self.env.bridge.load_state_dict(data["infos"]["bridge"])
         if "rises" in data["infos"]:
             self.env.rises.load_state_dict(data["infos"]["rises"])
+        if self.teacher and data["infos"].get("teacher"):
+            self.teacher.load_state_dict(data["infos"]["teacher"])
         self.compute_s = data["infos"].get("compute_time_s")
         self.segments = [*data["infos"].get("segments", []),
                          {"iteration": self.current_learning_iteration, "hardware": hardware()}]
@@ -228,6 +237,8 @@ def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
     env = RecoveryEnv(dataclasses.replace(env_cfg, seed=rank.seed(cfg.seed)),
                       local_rank=rank.local_rank)
     critic_dim = int(env.get_observations()["critic"].shape[1])
+    teacher = make_teacher(cfg.teacher, env_cfg, env.model, rank.seed(cfg.seed)) \
+        if cfg.teacher.learning_rate > 0.0 else None
     meta = {**policy_meta(cfg, env_cfg, critic_dim), "amendments": amendments}
     if rank.writes:
         if force and not resume:
@@ -237,6 +248,9 @@ def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
         atomic_write_text(json.dumps(meta, indent=2, default=str), run_dir / RUN_CONFIG)
     runner = RecoveryRunner(env, runner_dict(cfg), str(run_dir) if rank.writes else None, meta,
                             cfg.keep_checkpoints, device=rank.learner_device(cfg.device))
+    if teacher is not None:
+        assert isinstance(runner.alg, TeacherPPO)
+        runner.alg.teacher = teacher
     if resume:
         runner.load_run(latest)
         if amend and "assist.fraction" in amend:  # the amendment outranks the saved state

@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import asdict, fields, replace
 from typing import Any
 
-from hybrid_recovery.training.config import PPOConfig, TrainConfig
+from hybrid_recovery.training.config import PPOConfig, TeacherConfig, TrainConfig
 
 RECOVERY_ENV: dict[str, Any] = {
     "pose_weights": {"standing": 0.5, "squatting": 0.5, "kneeling": 1.5, "half_kneeling": 1.0,
@@ -60,7 +60,8 @@ VARIANT_TRAIN: dict[str, dict[str, Any]] = {
                  "ppo.mixed_precision": False},
     "recovery_rises": {"init_std": 0.5, "max_std": 0.6, "save_interval": 25},
 }
-"""Variant name → TrainConfig settings other than the defaults (``ppo.<field>`` for PPO);
+"""Variant name → TrainConfig settings other than the defaults (``ppo.<field>`` for PPO,
+``teacher.<field>`` for the teacher);
 absent: the defaults. ``recovery`` keeps the float32 update its policy was trained
 with, so that it stays the shipped recipe."""
 
@@ -90,12 +91,15 @@ def variant_train_config(name: str, **settings: Any) -> TrainConfig:
     unknown = sorted(set(given) - names)
     if unknown:
         raise KeyError(f"unknown TrainConfig fields {unknown}; known: {sorted(names)}")
-    ppo = asdict(PPOConfig())
+    ppo, teacher = asdict(PPOConfig()), asdict(TeacherConfig())
     plain = {}
     for key, value in VARIANT_TRAIN.get(name, {}).items():
         if key.startswith("ppo."):
             ppo[key.removeprefix("ppo.")] = value
+        elif key.startswith("teacher."):
+            teacher[key.removeprefix("teacher.")] = value
         else:
             plain[key] = value
-    cfg = replace(TrainConfig(variant=name), ppo=PPOConfig(**ppo), **plain)
+    cfg = replace(TrainConfig(variant=name), ppo=PPOConfig(**ppo),
+                  teacher=TeacherConfig(**teacher), **plain)
     return replace(cfg, **given)

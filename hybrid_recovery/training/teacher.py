@@ -1,0 +1,198 @@
+"""A teacher for the learned stand-up: imitation of the recorded ground moves (beyond the
+paper; off by default).
+
+The hybrid's recorded rises (``hybrid-recovery getup record``) hold, along each
+model-based ground move, the states (q, q̇) and the joint targets q_ref the moves
+commanded through the same PD servos the policy drives. In action units these are
+a* = (q_ref − q*) / s, the action that would have commanded them. After every PPO update
+:class:`TeacherPPO` takes a few Adam steps on
+
+    L_T = mean ‖μ_θ(o) − a*‖²
+
+over the recorded move states o (the actor observation of each state, with the training
+observation noise), μ_θ the actor's mean; the Adam step size is annealed linearly to zero
+(Adam is invariant to the loss's scale, so the step size, not a loss weight, is what
+anneals). The actor still sees proprioception only and the rewards are the paper's: the
+teacher adds a gradient toward the moves' actions on their states, the "kickstarting"
+of Schmitt et al. (arXiv 1803.03835) with recorded states in place of a teacher network.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import mujoco
+import numpy as np
+import torch
+from rsl_rl.algorithms import PPO
+from tensordict import TensorDict
+
+from hybrid_recovery.envs.config import EnvConfig, NoiseConfig
+from hybrid_recovery.envs.rise_starts import move_progress
+from hybrid_recovery.observation.actor import actor_observation, noise_halfwidths
+from hybrid_recovery.observation.mujoco_source import ProprioceptionMap, read_proprioception
+from hybrid_recovery.robot.action import ACTION_CLIP
+from hybrid_recovery.robot.constants import DEFAULT_JOINT_POS
+from hybrid_recovery.training.config import TeacherConfig
+
+_HOW = ("re-record it with `hybrid-recovery getup record --pose POSE --episodes N "
+        "--out FILE`, which writes the moves' joint targets")
+
+
+def teacher_samples(paths: Sequence[str | Path], model: mujoco.MjModel, action_scale: float
+                    ) -> tuple[np.ndarray, np.ndarray]:
+    """The actor observations and the moves' actions of every recorded move state.
+
+    A move state is a sample after the settle and before the hand-over to the policy
+    (:func:`hybrid_recovery.envs.rise_starts.move_progress`) whose target is recorded.
+    Its observation is :func:`~hybrid_recovery.observation.actor.actor_observation` of
+    the state read through the torso IMU of ``model``, without noise, with a_{t−1} the
+    previous move sample's action (its own at a move's first sample).
+
+    Args:
+        paths: recordings (``.npz``) with a ``target`` array.
+        model: the robot model the states belong to (its kinematics give the IMU).
+        action_scale: s [rad], q_ref = q* + s · a.
+
+    Returns:
+        (obs (M, 87) float32, a* (M, 27) float32), a* clipped to ±ACTION_CLIP.
+
+    Raises:
+        ValueError: no recordings, a file without ``target`` or without a move sample
+            that has one; the message names the file.
+    """
+    if not paths:
+        raise ValueError("the teacher needs recorded rises: set rises.files")
+    where = ProprioceptionMap.of(model)
+    data = mujoco.MjData(model)
+    obs, actions = [], []
+    for path in paths:
+        with np.load(path, allow_pickle=False) as rec:
+            if "target" not in rec.files:
+                raise ValueError(f"rise recording {path} has no 'target' (the moves' joint "
+                                 f"targets); {_HOW}")
+            qpos, qvel, target = rec["qpos"], rec["qvel"], rec["target"]
+            on_move, _ = move_progress(rec["time"], rec["episode"], rec["phase"].astype(str))
+            episode = rec["episode"]
+        rows = np.flatnonzero(on_move & np.isfinite(target).all(axis=1))
+        if not len(rows):
+            raise ValueError(f"rise recording {path}: no move sample with a target; {_HOW}")
+        act = np.clip((target[rows] - DEFAULT_JOINT_POS) / action_scale,
+                      -ACTION_CLIP, ACTION_CLIP)
+        follows = np.r_[False, (np.diff(rows) == 1) & (np.diff(episode[rows]) == 0)]
+        last = np.where(follows[:, None], np.roll(act, 1, axis=0), act)
+        for k, row in enumerate(rows):
+            data.qpos[:], data.qvel[:] = qpos[row], qvel[row]
+            mujoco.mj_forward(model, data)
+            gyro, quat, q, dq = read_proprioception(model, data, where)
+            obs.append(actor_observation(gyro[None], quat[None], q[None], dq[None],
+                                         last[k][None])[0])
+        actions.append(act)
+    return np.stack(obs).astype(np.float32), np.concatenate(actions).astype(np.float32)
+
+
+class Teacher:
+    """Annealed Adam steps of the imitation loss L_T on the actor.
+
+    Args:
+        obs: (M, 87) recorded move observations, without noise.
+        actions: (M, 27) their actions a*.
+        noise: (87,) half-widths of the uniform noise added to each drawn observation
+            (the training's actor noise).
+        cfg: the settings (``learning_rate`` > 0).
+        seed: of the draws.
+    """
+
+    def __init__(self, obs: np.ndarray, actions: np.ndarray, noise: np.ndarray,
+                 cfg: TeacherConfig, seed: int = 0) -> None:
+        if not cfg.learning_rate > 0.0 or cfg.steps < 1 or cfg.batch_size < 1 \
+                or cfg.anneal_iterations < 1:
+            raise ValueError(f"the teacher needs learning_rate > 0, steps >= 1, batch_size "
+                             f">= 1 and anneal_iterations >= 1; got {cfg}")
+        if len(obs) != len(actions) or not len(obs):
+            raise ValueError(f"teacher data: {len(obs)} observations, {len(actions)} actions")
+        self.cfg = cfg
+        self.obs, self.actions = torch.as_tensor(obs), torch.as_tensor(actions)
+        self.noise = torch.as_tensor(noise, dtype=torch.float32)
+        self.updates = 0
+        """PPO updates the teacher has followed (its anneal's clock)."""
+        self._generator = torch.Generator().manual_seed(seed)
+        self._optimizer: torch.optim.Adam | None = None
+        self._saved_optimizer: dict | None = None
+
+    def learning_rate(self) -> float:
+        """Step size now: lr₀ · max(0, 1 − updates / anneal_iterations)."""
+        return self.cfg.learning_rate * max(0.0, 1.0 - self.updates / self.cfg.anneal_iterations)
+
+    def step(self, actor: torch.nn.Module) -> dict[str, float]:
+        """``steps`` Adam steps of L_T on ``actor`` (mean output); returns the mean L_T
+        before each step (``teacher``) and the step size (``teacher_lr``). Nothing is
+        stepped once annealed to zero."""
+        lr = self.learning_rate()
+        self.updates += 1
+        if lr <= 0.0:
+            return {"teacher_lr": 0.0}
+        if self._optimizer is None:
+            params = [p for p in actor.parameters() if p.requires_grad]
+            self._optimizer = torch.optim.Adam(params, lr=lr)
+            if self._saved_optimizer is not None:
+                self._optimizer.load_state_dict(self._saved_optimizer)
+        for group in self._optimizer.param_groups:
+            group["lr"] = lr
+        total = 0.0
+        for _ in range(self.cfg.steps):
+            idx = torch.randint(len(self.obs), (self.cfg.batch_size,), generator=self._generator)
+            noise = (2.0 * torch.rand(self.cfg.batch_size, self.obs.shape[1],
+                                      generator=self._generator) - 1.0) * self.noise
+            obs = TensorDict({"policy": self.obs[idx] + noise}, batch_size=[self.cfg.batch_size])
+            loss = (actor(obs) - self.actions[idx]).pow(2).sum(-1).mean()
+            self._optimizer.zero_grad()
+            loss.backward()
+            torch.nn.utils.clip_grad_norm_(self._optimizer.param_groups[0]["params"], 1.0)
+            self._optimizer.step()
+            total += loss.item()
+        return {"teacher": total / self.cfg.steps, "teacher_lr": lr}
+
+    def state_dict(self) -> dict:
+        return {"updates": self.updates,
+                "optimizer": None if self._optimizer is None else self._optimizer.state_dict()}
+
+    def load_state_dict(self, state: dict) -> None:
+        self.updates = int(state["updates"])
+        self._saved_optimizer = state.get("optimizer")
+
+
+class TeacherPPO(PPO):
+    """rsl-rl's PPO followed, after every update, by the :class:`Teacher`'s steps (when
+    one is attached); the PPO update itself is untouched."""
+
+    teacher: Teacher | None = None
+
+    def update(self) -> dict[str, float]:
+        losses = super().update()
+        if self.teacher is not None:
+            losses.update(self.teacher.step(self._raw_actor))
+        return losses
+
+
+def noise_of(noise_cfg: NoiseConfig) -> np.ndarray:
+    """(87,) half-widths of the actor observation noise of an env's ``NoiseConfig``."""
+    return noise_halfwidths(noise_cfg.ang_vel, noise_cfg.gravity, noise_cfg.joint_pos,
+                            noise_cfg.joint_vel)
+
+
+def make_teacher(cfg: TeacherConfig, env_cfg: EnvConfig, model: mujoco.MjModel,
+                 seed: int = 0) -> Teacher:
+    """The teacher of a run: the move states and actions of the env's ``rises.files``
+    on its ``model``, with its observation noise.
+
+    Raises:
+        ValueError: bad settings or recordings (:func:`teacher_samples`, :class:`Teacher`).
+    """
+    obs, actions = teacher_samples(env_cfg.rises.files, model, env_cfg.action_scale)
+    teacher = Teacher(obs, actions, noise_of(env_cfg.noise), cfg, seed=seed)
+    print(f"[hybrid-recovery] teacher: {len(obs)} recorded move states, lr0 "
+          f"{cfg.learning_rate:g} annealed over {cfg.anneal_iterations} updates", flush=True)
+    return teacher
+

@@ -1,0 +1,204 @@
+"""The imitation teacher: recorded move states and actions, the annealed Adam steps, its
+checkpoint, and the settings that switch it on."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+import torch
+from rsl_rl.algorithms import PPO
+from tensordict import TensorDict
+from test_rise_starts import NV, PHASES, write_recording
+
+from hybrid_recovery.envs import RecoveryEnv, default_config
+from hybrid_recovery.envs.config import NoiseConfig, RiseConfig
+from hybrid_recovery.robot.action import joint_targets
+from hybrid_recovery.robot.constants import DEFAULT_JOINT_POS
+from hybrid_recovery.sim.initial_states import POSES, settle_pool
+from hybrid_recovery.sim.scene import build_scene
+from hybrid_recovery.training.checkpoint import load_checkpoint
+from hybrid_recovery.training.config import (
+    TeacherConfig,
+    TrainConfig,
+    amend_train_config,
+    train_config_from_dict,
+)
+from hybrid_recovery.training.runner import train
+from hybrid_recovery.training.teacher import Teacher, TeacherPPO, noise_of, teacher_samples
+
+MOVE = slice(2, 18)
+"""The move's samples in each synthetic episode (:data:`tests.test_rise_starts.PHASES`)."""
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory) -> tuple[Path, np.ndarray]:
+    """Two episodes of settled sitting states whose move samples carry joint targets (a
+    different, identifiable target per sample); NaN off the move, as ``getup record``."""
+    model, _ = build_scene(None, 0.005)
+    qpos, _ = settle_pool(model, per_pose=len(PHASES), rng=np.random.default_rng(4),
+                          nthread=1)["sitting"]
+    qpos = np.concatenate([qpos, qpos])
+    qvel = np.zeros((len(qpos), NV))
+    qvel[:, 3:6] = [0.3, -0.2, 0.5]  # body-frame angular velocity of the base
+    qvel[:, 6:] = np.linspace(-1.0, 1.0, NV - 6)
+    target = np.full((len(qpos), 27), np.nan)
+    for ep in range(2):
+        rows = np.arange(len(PHASES))[MOVE] + ep * len(PHASES)
+        target[rows] = DEFAULT_JOINT_POS + 0.01 * np.arange(len(rows))[:, None] + 0.1 * ep
+    path = write_recording(tmp_path_factory.mktemp("teach") / "sitting.npz", qpos, qvel,
+                           target=target)
+    return path, target
+
+
+def test_the_move_states_give_the_actions_that_command_their_targets(recording):
+    path, target = recording
+    model, _ = build_scene(None, 0.005)
+    obs, actions = teacher_samples([path], model, 0.3)
+    moved = np.isfinite(target).all(1)
+    assert obs.shape == (32, 87) and actions.shape == (32, 27) and obs.dtype == np.float32
+    # a* commands exactly the recorded targets through the policy's action → target map
+    np.testing.assert_allclose(joint_targets(actions, 0.3), target[moved], atol=1e-6)
+    # a_{t−1}: the previous move sample's action; a move's first sample has its own
+    last = obs[:, 60:]
+    np.testing.assert_array_equal(last[1:16], actions[:15])
+    np.testing.assert_array_equal(last[[0, 16]], actions[[0, 16]])
+    np.testing.assert_array_equal(last[17:], actions[16:-1])
+
+
+def test_the_move_observations_are_the_envs_observations_of_those_states(recording):
+    """The same recorded states seated in the training env (its own batched sensors, at a
+    random heading): gyro, gravity, joints and joint speeds agree."""
+    path, _ = recording
+    cfg = default_config()
+    cfg.num_envs, cfg.num_threads, cfg.seed = 8, 1, 3
+    cfg.curriculum.enabled = False
+    cfg.pose_weights = {"sitting": 1.0}
+    cfg.rises = RiseConfig(files=(str(path),), levels=1, window=10_000)
+    env = RecoveryEnv(cfg)
+    obs, _ = teacher_samples([path], env.model, cfg.action_scale)
+    ids = np.arange(env.num_envs)
+    env._reset(ids)
+    env._read_state(ids)
+    seen = env._observations()["critic"].numpy()[:, :60]  # the clean actor observation
+    assert (env.start_pose == POSES.index("sitting")).all()
+    moves = env.rises.moves["sitting"].qpos
+    for i in ids:
+        row = np.flatnonzero((moves[:, 7:] == env.qpos[i, 7:]).all(1))[0]
+        np.testing.assert_allclose(seen[i], obs[row, :60], atol=2e-5)
+
+
+def test_a_recording_without_targets_is_refused_with_the_way_to_write_one(tmp_path, recording):
+    path, _ = recording
+    model, _ = build_scene(None, 0.005)
+    with np.load(path) as rec:
+        arrays = {k: rec[k] for k in rec.files if k != "target"}
+    np.savez(tmp_path / "old.npz", **arrays)
+    with pytest.raises(ValueError) as err:
+        teacher_samples([tmp_path / "old.npz"], model, 0.3)
+    assert str(err.value) == (
+        f"rise recording {tmp_path / 'old.npz'} has no 'target' (the moves' joint targets); "
+        "re-record it with `hybrid-recovery getup record --pose POSE --episodes N --out "
+        "FILE`, which writes the moves' joint targets")
+    with pytest.raises(ValueError, match="the teacher needs recorded rises: set rises.files"):
+        teacher_samples([], model, 0.3)
+
+
+class LinearActor(torch.nn.Module):
+    """μ = W o, read from the ``policy`` group as rsl-rl's actor does."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.linear = torch.nn.Linear(87, 27, bias=False)
+
+    def forward(self, obs: TensorDict) -> torch.Tensor:
+        return self.linear(obs["policy"])
+
+
+def test_the_steps_fit_the_teacher_and_stop_once_annealed():
+    rng = np.random.default_rng(0)
+    obs = rng.normal(size=(512, 87)).astype(np.float32)
+    actions = (obs @ rng.normal(size=(87, 27)) * 0.1).astype(np.float32)
+    cfg = TeacherConfig(learning_rate=0.01, anneal_iterations=60, steps=4, batch_size=256)
+    teacher = Teacher(obs, actions, np.zeros(87, np.float32), cfg, seed=1)
+    torch.manual_seed(0)
+    actor = LinearActor()
+    first = teacher.step(actor)
+    assert first["teacher_lr"] == 0.01 and teacher.updates == 1
+    for _ in range(58):
+        last = teacher.step(actor)
+    assert last["teacher_lr"] == pytest.approx(0.01 * (1 - 58 / 60))
+    assert last["teacher"] < 0.05 * first["teacher"]
+    teacher.step(actor)  # the 60th: lr 0.01 / 60
+    weights = actor.linear.weight.detach().clone()
+    assert teacher.step(actor) == {"teacher_lr": 0.0}  # annealed: nothing moves
+    assert torch.equal(actor.linear.weight, weights)
+    # the clock and the Adam state come back from a checkpoint
+    resumed = Teacher(obs, actions, np.zeros(87, np.float32), cfg)
+    resumed.load_state_dict(teacher.state_dict())
+    assert resumed.updates == 61 and resumed.learning_rate() == 0.0
+
+
+def test_the_observation_noise_is_the_trainings():
+    noisy = Teacher(np.zeros((4, 87), np.float32), np.zeros((4, 27), np.float32),
+                    noise_of(NoiseConfig()), TeacherConfig(learning_rate=1.0, batch_size=4096))
+    actor = LinearActor()
+    seen = []
+    actor.register_forward_hook(lambda m, args, out: seen.append(args[0]["policy"]))
+    noisy.step(actor)
+    half = torch.as_tensor(noise_of(NoiseConfig()))
+    drawn = torch.cat(seen)
+    assert (drawn.abs() <= half).all()
+    assert (drawn[:, :60].abs().amax(0) > 0.9 * half[:60]).all()  # the full width is used
+    assert (drawn[:, 60:] == 0).all() and drawn[:, :60].std(0).min() > 0.05
+
+
+def test_bad_teacher_settings_are_refused():
+    data = np.zeros((4, 87), np.float32), np.zeros((4, 27), np.float32)
+    for cfg in (TeacherConfig(), TeacherConfig(learning_rate=1e-3, steps=0),
+                TeacherConfig(learning_rate=1e-3, anneal_iterations=0)):
+        with pytest.raises(ValueError, match="the teacher needs learning_rate > 0"):
+            Teacher(*data, np.zeros(87, np.float32), cfg)
+    with pytest.raises(KeyError, match="unknown teacher setting 'rate'"):
+        amend_train_config(TrainConfig(), {"teacher.rate": 1e-4})
+    with pytest.raises(ValueError, match="teacher.steps"):
+        amend_train_config(TrainConfig(), {"teacher.steps": "many"})
+
+
+def test_a_run_with_a_teacher_saves_and_resumes_its_clock(tmp_path, recording):
+    path, _ = recording
+    overrides = {"curriculum.enabled": False, "pose_weights": {"sitting": 1.0},
+                 "rises.files": [str(path)], "rises.levels": 1, "rises.window": 100_000}
+    cfg = TrainConfig(num_envs=8, num_steps_per_env=4, iterations=2, save_interval=1,
+                      num_threads=1, env_overrides=overrides,
+                      teacher=TeacherConfig(learning_rate=1e-3, anneal_iterations=10,
+                                            steps=1, batch_size=16))
+    runner = train(tmp_path / "run", cfg)
+    assert isinstance(runner.alg, TeacherPPO) and runner.teacher is not None
+    saved = load_checkpoint(tmp_path / "run" / "latest.pt")["infos"]
+    assert saved["teacher"]["updates"] == 2 and saved["teacher"]["optimizer"] is not None
+    assert train_config_from_dict(saved["meta"]["train_config"]).teacher == cfg.teacher
+    cfg.iterations = 3
+    resumed = train(tmp_path / "run", cfg, resume=True)
+    assert resumed.teacher is not None and resumed.teacher.updates == 3
+
+
+def test_without_a_teacher_the_algorithm_is_rsl_rls_ppo(tmp_path, recording):
+    path, _ = recording
+    cfg = TrainConfig(num_envs=8, num_steps_per_env=4, iterations=1, save_interval=1,
+                      num_threads=1, env_overrides={"curriculum.enabled": False})
+    runner = train(tmp_path / "plain", cfg)
+    assert type(runner.alg) is PPO and runner.teacher is None
+    assert load_checkpoint(tmp_path / "plain" / "latest.pt")["infos"]["teacher"] is None
+    # switched on in a resumed run, it starts its clock at the amendment
+    amended = train(tmp_path / "plain", TrainConfig(iterations=2, num_threads=1), resume=True,
+                    amend={"teacher.learning_rate": 1e-3, "rises.files": [str(path)],
+                           "pose_weights": {"sitting": 1.0}})
+    assert isinstance(amended.alg, TeacherPPO)
+    assert amended.teacher is not None and amended.teacher.updates == 1
+    # on without recordings: refused before anything is written
+    with pytest.raises(ValueError, match="the teacher needs recorded rises: set rises.files"):
+        train(tmp_path / "none", TrainConfig(num_envs=4, iterations=1, num_threads=1,
+                                             teacher=TeacherConfig(learning_rate=1e-3)))
+    assert not (tmp_path / "none").exists()
