@@ -27,8 +27,9 @@ from hybrid_recovery.training.probe import first_episodes, training_env
 
 
 def probe(run: Path, rises: Path, levels: int, num_envs: int, seed: int,
-          seconds: float) -> dict:
-    """Stand-up share of ``run``'s latest actor from each level of ``rises``' starts."""
+          seconds: float, first: int = 0) -> dict:
+    """Stand-up share of ``run``'s latest actor from each level ``first`` … K of
+    ``rises``' starts."""
     env, data = training_env(run, num_envs, seed, {
         "rises.files": [str(rises)], "rises.levels": levels, "episode_length_s": seconds})
     (pose,) = env.rises.poses
@@ -38,7 +39,7 @@ def probe(run: Path, rises: Path, levels: int, num_envs: int, seed: int,
     shares: dict[str, dict[str, float]] = {"stood_up_by_level": {},
                                            "chest_up_at_start_by_level": {},
                                            "turned_chest_down_by_level": {}}
-    for k in range(levels + 1):
+    for k in range(first, levels + 1):
         env.rises.level[pose] = k
         watch = ChestWatch(env)
         stood, _ = first_episodes(env, actor, watch)
@@ -78,12 +79,14 @@ def main() -> None:
     parser.add_argument("--envs", type=int, default=32, help="episodes per level and run")
     parser.add_argument("--seconds", type=float, default=8.0, help="episode length [s]")
     parser.add_argument("--seed", type=int, default=7)
+    parser.add_argument("--from-level", type=int, default=0,
+                        help="probe levels from this one to K (the pose) only")
     args = parser.parse_args()
     torch.set_num_threads(1)
     for run in args.runs:
         for rises in args.rises:
             print(json.dumps(probe(run, rises, args.levels, args.envs, args.seed,
-                                   args.seconds)), flush=True)
+                                   args.seconds, args.from_level)), flush=True)
 
 
 if __name__ == "__main__":

@@ -34,8 +34,8 @@ MOVE = slice(2, 18)
 
 @pytest.fixture(scope="module")
 def recording(tmp_path_factory) -> tuple[Path, np.ndarray]:
-    """Two episodes of settled sitting states whose move samples carry joint targets (a
-    different, identifiable target per sample); NaN off the move, as ``getup record``."""
+    """Two episodes of settled sitting states whose move samples carry keyframes (a
+    different, identifiable one per sample); NaN off the move, as ``getup record``."""
     model, _ = build_scene(None, 0.005)
     qpos, _ = settle_pool(model, per_pose=len(PHASES), rng=np.random.default_rng(4),
                           nthread=1)["sitting"]
@@ -48,7 +48,7 @@ def recording(tmp_path_factory) -> tuple[Path, np.ndarray]:
         rows = np.arange(len(PHASES))[MOVE] + ep * len(PHASES)
         target[rows] = DEFAULT_JOINT_POS + 0.01 * np.arange(len(rows))[:, None] + 0.1 * ep
     path = write_recording(tmp_path_factory.mktemp("teach") / "sitting.npz", qpos, qvel,
-                           target=target)
+                           goal=target)
     return path, target
 
 
@@ -58,7 +58,7 @@ def test_the_move_states_give_the_actions_that_command_their_targets(recording):
     obs, actions = teacher_samples([path], model, 0.3)
     moved = np.isfinite(target).all(1)
     assert obs.shape == (32, 87) and actions.shape == (32, 27) and obs.dtype == np.float32
-    # a* commands exactly the recorded targets through the policy's action → target map
+    # a* commands exactly the recorded keyframes through the policy's action → target map
     np.testing.assert_allclose(joint_targets(actions, 0.3), target[moved], atol=1e-6)
     # a_{t−1}: the previous move sample's action; a move's first sample has its own
     last = obs[:, 60:]
@@ -89,18 +89,18 @@ def test_the_move_observations_are_the_envs_observations_of_those_states(recordi
         np.testing.assert_allclose(seen[i], obs[row, :60], atol=2e-5)
 
 
-def test_a_recording_without_targets_is_refused_with_the_way_to_write_one(tmp_path, recording):
+def test_a_recording_without_keyframes_is_refused_with_the_way_to_write_one(tmp_path, recording):
     path, _ = recording
     model, _ = build_scene(None, 0.005)
     with np.load(path) as rec:
-        arrays = {k: rec[k] for k in rec.files if k != "target"}
+        arrays = {k: rec[k] for k in rec.files if k != "goal"}
     np.savez(tmp_path / "old.npz", **arrays)
     with pytest.raises(ValueError) as err:
         teacher_samples([tmp_path / "old.npz"], model, 0.3)
     assert str(err.value) == (
-        f"rise recording {tmp_path / 'old.npz'} has no 'target' (the moves' joint targets); "
+        f"rise recording {tmp_path / 'old.npz'} has no 'goal' (the moves' keyframes); "
         "re-record it with `hybrid-recovery getup record --pose POSE --episodes N --out "
-        "FILE`, which writes the moves' joint targets")
+        "FILE`, which writes them")
     with pytest.raises(ValueError, match="the teacher needs recorded rises: set rises.files"):
         teacher_samples([], model, 0.3)
 

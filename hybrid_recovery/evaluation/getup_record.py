@@ -10,6 +10,8 @@ one ``.npz``:
 * ``phase`` (T,): ``settle``, ``<move>/<keyframe>``, ``policy`` or ``qp``;
 * ``target`` (T, 27) [rad]: the moves' joint targets q_ref at each sample (the servo
   targets the ground moves command, motor order), NaN where the moves do not act;
+* ``goal`` (T, 27) [rad]: the keyframe the current phase's targets move to and hold,
+  NaN where the moves do not act;
 * ``contacts`` (T, B) bool: body b touches the floor; ``contact_bodies`` (B,) names;
 * ``seeds`` (E,) and ``recovery_time`` (E,) [s] of the kept episodes;
   ``attempted`` the number of episodes run.
@@ -29,14 +31,14 @@ from hybrid_recovery.getup.ground_state import touching_bodies
 from hybrid_recovery.robot import constants
 
 
-def move_target(ctrl: object) -> np.ndarray:
-    """The ground moves' current joint targets q_ref (27,) [rad] of a controller with
-    moves in progress (``ctrl.moves`` acting, a phase ``<move>/<keyframe>``); NaN
-    otherwise."""
+def move_target(ctrl: object, goal: bool = False) -> np.ndarray:
+    """The ground moves' current joint targets q_ref (27,) [rad] (``goal``: the keyframe
+    the current phase moves to) of a controller with moves in progress (``ctrl.moves``
+    acting, a phase ``<move>/<keyframe>``); NaN otherwise."""
     moves = getattr(ctrl, "moves", None)
     if moves is None or "/" not in str(getattr(ctrl, "phase", "")):
         return np.full(constants.NUM_JOINTS, np.nan)
-    return np.asarray(moves.q_ref, dtype=float).copy()
+    return np.asarray(moves.goal if goal else moves.q_ref, dtype=float).copy()
 
 
 def record_rises(pose: str, episodes: int, out: str | Path, duration: float = 30.0,
@@ -56,7 +58,7 @@ def record_rises(pose: str, episodes: int, out: str | Path, duration: float = 30
         raise ValueError(f"duration must be > 0, got {duration}")
     ctrl = make_controller(controller)
     rows: dict[str, list] = {k: [] for k in ("qpos", "qvel", "time", "episode", "phase",
-                                             "target", "contacts")}
+                                             "target", "goal", "contacts")}
     seeds, times = [], []
     bodies: list[str] = []
     for k in range(episodes):
@@ -73,6 +75,7 @@ def record_rises(pose: str, episodes: int, out: str | Path, duration: float = 30
             sample["time"].append(float(data.time))
             sample["phase"].append(getattr(ctrl, "phase", ctrl.name))
             sample["target"].append(move_target(ctrl))
+            sample["goal"].append(move_target(ctrl, goal=True))
             sample["contacts"].append([b in touching for b in bodies])
 
         scenario = Scenario(pose, duration=duration, seed=seed + k)
@@ -92,6 +95,7 @@ def record_rises(pose: str, episodes: int, out: str | Path, duration: float = 30
         time=np.array(rows["time"]), episode=np.array(rows["episode"], dtype=int),
         phase=np.array(rows["phase"], dtype=str),
         target=np.array(rows["target"], dtype=float).reshape(-1, constants.NUM_JOINTS),
+        goal=np.array(rows["goal"], dtype=float).reshape(-1, constants.NUM_JOINTS),
         contacts=np.array(rows["contacts"], dtype=bool).reshape(-1, len(bodies)),
         contact_bodies=np.array(bodies, dtype=str), seeds=np.array(seeds, dtype=int),
         recovery_time=np.array(times), attempted=np.array(episodes), pose=np.array(pose))

@@ -136,6 +136,12 @@ class GroundMoves:
                 self.q_ref = (1.0 - s) * self._from + s * self._to
         return self.q_ref
 
+    @property
+    def goal(self) -> np.ndarray:
+        """The keyframe (27,) [rad] the current phase's targets move to and hold (clamped
+        to the ranges × ``range_factor``); q_ref when no move is in progress."""
+        return self._to if self.move is not None else self.q_ref
+
     def __call__(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
         """τ (27,) [N·m]: the PD law on :meth:`targets` (on a torque-controlled model)."""
         q_ref = self.targets(model, data)

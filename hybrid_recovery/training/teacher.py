@@ -2,9 +2,16 @@
 paper; off by default).
 
 The hybrid's recorded rises (``hybrid-recovery getup record``) hold, along each
-model-based ground move, the states (q, q̇) and the joint targets q_ref the moves
-commanded through the same PD servos the policy drives. In action units these are
-a* = (q_ref − q*) / s, the action that would have commanded them. After every PPO update
+model-based ground move, the states (q, q̇) and the keyframe q_g each phase of the move
+drives its PD targets to (the servos the policy drives). In action units the teacher's
+action is a* = (q_g − q*) / s: "go to where this phase goes". Why the keyframe and not
+the commanded targets q_ref(t), which smoothstep from the phase's start toward q_g: a
+memoryless policy cannot know the time, and at a phase's start q_ref(t) ≈ q, so imitated
+as a function of the state it says "stay". Fitted offline to the same actor (300 Adam
+steps) and run closed-loop from the moves' first states on the env's model, q_ref(t)
+and q_ref(t + 0.2 s) rolled 0 of 8 moves, q_g 3 of 8 (each one ending in knee-chest);
+trained with q_ref(t) the rise levels of a fork fell from 13–14 of 16 to 0 within 150
+iterations (docs/experiments.md §11). After every PPO update
 :class:`TeacherPPO` takes a few Adam steps on
 
     L_T = mean ‖μ_θ(o) − a*‖²
@@ -37,7 +44,7 @@ from hybrid_recovery.robot.constants import DEFAULT_JOINT_POS
 from hybrid_recovery.training.config import TeacherConfig
 
 _HOW = ("re-record it with `hybrid-recovery getup record --pose POSE --episodes N "
-        "--out FILE`, which writes the moves' joint targets")
+        "--out FILE`, which writes them")
 
 
 def teacher_samples(paths: Sequence[str | Path], model: mujoco.MjModel, action_scale: float
@@ -45,13 +52,14 @@ def teacher_samples(paths: Sequence[str | Path], model: mujoco.MjModel, action_s
     """The actor observations and the moves' actions of every recorded move state.
 
     A move state is a sample after the settle and before the hand-over to the policy
-    (:func:`hybrid_recovery.envs.rise_starts.move_progress`) whose target is recorded.
+    (:func:`hybrid_recovery.envs.rise_starts.move_progress`) whose keyframe (``goal``)
+    is recorded.
     Its observation is :func:`~hybrid_recovery.observation.actor.actor_observation` of
     the state read through the torso IMU of ``model``, without noise, with a_{t−1} the
     previous move sample's action (its own at a move's first sample).
 
     Args:
-        paths: recordings (``.npz``) with a ``target`` array.
+        paths: recordings (``.npz``) with a ``goal`` array.
         model: the robot model the states belong to (its kinematics give the IMU).
         action_scale: s [rad], q_ref = q* + s · a.
 
@@ -59,7 +67,7 @@ def teacher_samples(paths: Sequence[str | Path], model: mujoco.MjModel, action_s
         (obs (M, 87) float32, a* (M, 27) float32), a* clipped to ±ACTION_CLIP.
 
     Raises:
-        ValueError: no recordings, a file without ``target`` or without a move sample
+        ValueError: no recordings, a file without ``goal`` or without a move sample
             that has one; the message names the file.
     """
     if not paths:
@@ -69,16 +77,16 @@ def teacher_samples(paths: Sequence[str | Path], model: mujoco.MjModel, action_s
     obs, actions = [], []
     for path in paths:
         with np.load(path, allow_pickle=False) as rec:
-            if "target" not in rec.files:
-                raise ValueError(f"rise recording {path} has no 'target' (the moves' joint "
-                                 f"targets); {_HOW}")
-            qpos, qvel, target = rec["qpos"], rec["qvel"], rec["target"]
+            if "goal" not in rec.files:
+                raise ValueError(f"rise recording {path} has no 'goal' (the moves' "
+                                 f"keyframes); {_HOW}")
+            qpos, qvel, goal = rec["qpos"], rec["qvel"], rec["goal"]
             on_move, _ = move_progress(rec["time"], rec["episode"], rec["phase"].astype(str))
             episode = rec["episode"]
-        rows = np.flatnonzero(on_move & np.isfinite(target).all(axis=1))
+        rows = np.flatnonzero(on_move & np.isfinite(goal).all(axis=1))
         if not len(rows):
-            raise ValueError(f"rise recording {path}: no move sample with a target; {_HOW}")
-        act = np.clip((target[rows] - DEFAULT_JOINT_POS) / action_scale,
+            raise ValueError(f"rise recording {path}: no move sample with a goal; {_HOW}")
+        act = np.clip((goal[rows] - DEFAULT_JOINT_POS) / action_scale,
                       -ACTION_CLIP, ACTION_CLIP)
         follows = np.r_[False, (np.diff(rows) == 1) & (np.diff(episode[rows]) == 0)]
         last = np.where(follows[:, None], np.roll(act, 1, axis=0), act)
