@@ -2,16 +2,17 @@
 paper; off by default).
 
 The hybrid's recorded rises (``hybrid-recovery getup record``) hold, along each
-model-based ground move, the states (q, q̇) and the keyframe q_g each phase of the move
-drives its PD targets to (the servos the policy drives). In action units the teacher's
-action is a* = (q_g − q*) / s: "go to where this phase goes". Why the keyframe and not
-the commanded targets q_ref(t), which smoothstep from the phase's start toward q_g: a
-memoryless policy cannot know the time, and at a phase's start q_ref(t) ≈ q, so imitated
-as a function of the state it says "stay". Fitted offline to the same actor (300 Adam
-steps) and run closed-loop from the moves' first states on the env's model, q_ref(t)
-and q_ref(t + 0.2 s) rolled 0 of 8 moves, q_g 3 of 8 (each one ending in knee-chest);
-trained with q_ref(t) the rise levels of a fork fell from 13–14 of 16 to 0 within 150
-iterations (docs/experiments.md §11). After every PPO update
+model-based ground move, the states (q, q̇), the PD targets q_ref the moves commanded
+(the servos the policy drives) and the keyframe q_g each phase of a move drives them to
+and then holds. The teacher's action is a* = (q_g − q*) / s, "go to where this phase
+goes", on the states where the phase is still moving (q_ref ≠ q_g), not while it holds.
+Why, measured: a memoryless policy cannot know the time. Imitating q_ref(t), which
+smoothsteps from the phase's start, says "stay" at a phase's start (q_ref ≈ q); a hold's
+quasi-static states labelled with the phase's own keyframe say "stay" where the next
+phase must begin. Fitted offline to the same actor (600 Adam steps) and run closed-loop
+from the moves' first states on the env's model: q_ref(t) turned over 0 of 8 moves,
+q_g with the holds 4 of 8 (1 of 8 with one control step of delay), q_g without the holds
+7 of 8 (7 of 8 with the delay); docs/experiments.md §11. After every PPO update
 :class:`TeacherPPO` takes a few Adam steps on
 
     L_T = mean ‖μ_θ(o) − a*‖²
@@ -52,14 +53,15 @@ def teacher_samples(paths: Sequence[str | Path], model: mujoco.MjModel, action_s
     """The actor observations and the moves' actions of every recorded move state.
 
     A move state is a sample after the settle and before the hand-over to the policy
-    (:func:`hybrid_recovery.envs.rise_starts.move_progress`) whose keyframe (``goal``)
-    is recorded.
+    (:func:`hybrid_recovery.envs.rise_starts.move_progress`) whose phase is still moving
+    toward its keyframe: ``target`` (q_ref) recorded and not yet equal to ``goal`` (q_g).
     Its observation is :func:`~hybrid_recovery.observation.actor.actor_observation` of
     the state read through the torso IMU of ``model``, without noise, with a_{t−1} the
-    previous move sample's action (its own at a move's first sample).
+    previous move sample's action, a held one included (its own at a move's first
+    sample).
 
     Args:
-        paths: recordings (``.npz``) with a ``goal`` array.
+        paths: recordings (``.npz``) with ``target`` and ``goal`` arrays.
         model: the robot model the states belong to (its kinematics give the IMU).
         action_scale: s [rad], q_ref = q* + s · a.
 
@@ -67,8 +69,8 @@ def teacher_samples(paths: Sequence[str | Path], model: mujoco.MjModel, action_s
         (obs (M, 87) float32, a* (M, 27) float32), a* clipped to ±ACTION_CLIP.
 
     Raises:
-        ValueError: no recordings, a file without ``goal`` or without a move sample
-            that has one; the message names the file.
+        ValueError: no recordings, a file without ``target`` or ``goal`` or without a
+            moving move sample; the message names the file.
     """
     if not paths:
         raise ValueError("the teacher needs recorded rises: set rises.files")
@@ -77,19 +79,25 @@ def teacher_samples(paths: Sequence[str | Path], model: mujoco.MjModel, action_s
     obs, actions = [], []
     for path in paths:
         with np.load(path, allow_pickle=False) as rec:
-            if "goal" not in rec.files:
-                raise ValueError(f"rise recording {path} has no 'goal' (the moves' "
-                                 f"keyframes); {_HOW}")
-            qpos, qvel, goal = rec["qpos"], rec["qvel"], rec["goal"]
+            missing = [k for k in ("target", "goal") if k not in rec.files]
+            if missing:
+                raise ValueError(f"rise recording {path} has no {missing} (the moves' "
+                                 f"targets and keyframes); {_HOW}")
+            qpos, qvel, target, goal = rec["qpos"], rec["qvel"], rec["target"], rec["goal"]
             on_move, _ = move_progress(rec["time"], rec["episode"], rec["phase"].astype(str))
             episode = rec["episode"]
-        rows = np.flatnonzero(on_move & np.isfinite(goal).all(axis=1))
+        known = on_move & np.isfinite(goal).all(axis=1) & np.isfinite(target).all(axis=1)
+        every = np.clip((np.nan_to_num(goal) - DEFAULT_JOINT_POS) / action_scale,
+                        -ACTION_CLIP, ACTION_CLIP)
+        # a_{t−1}: the previous sample's keyframe action, held ones included
+        follows = np.r_[False, known[:-1] & (np.diff(episode) == 0)]
+        last_every = np.where(follows[:, None], np.roll(every, 1, axis=0), every)
+        rows = np.flatnonzero(known)
+        rows = rows[np.abs(target[rows] - goal[rows]).max(axis=1) > 1e-9]
         if not len(rows):
-            raise ValueError(f"rise recording {path}: no move sample with a goal; {_HOW}")
-        act = np.clip((goal[rows] - DEFAULT_JOINT_POS) / action_scale,
-                      -ACTION_CLIP, ACTION_CLIP)
-        follows = np.r_[False, (np.diff(rows) == 1) & (np.diff(episode[rows]) == 0)]
-        last = np.where(follows[:, None], np.roll(act, 1, axis=0), act)
+            raise ValueError(f"rise recording {path}: no move sample whose targets move; "
+                             f"{_HOW}")
+        act, last = every[rows], last_every[rows]
         for k, row in enumerate(rows):
             data.qpos[:], data.qvel[:] = qpos[row], qvel[row]
             mujoco.mj_forward(model, data)
