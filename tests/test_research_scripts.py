@@ -244,3 +244,36 @@ def test_rise_pace_fits_each_pose_and_draws(tmp_path, monkeypatch, capsys):
     assert "| 1,901 | 0 M | 0.8 |" in rows[0]
     assert rows[1].startswith("| supine | ") and "never" in rows[1]
     assert (tmp_path / "p.png").stat().st_size > 0
+
+
+def test_fork_ab_compares_the_levels_up_to_the_iteration_both_runs_reached(tmp_path, monkeypatch,
+                                                                          capsys):
+    """Two forks from iteration 100: one's level climbs one per 10 iterations to 60
+    logged, the other's stays at 2 for 30; the common end is 129."""
+    from torch.utils.tensorboard import SummaryWriter
+
+    module = _script("plot_fork_ab")
+    dirs = {}
+    for label, (count, level) in {"a": (60, lambda i: i // 10), "b": (30, lambda i: 2)}.items():
+        run = dirs[label] = tmp_path / label
+        run.mkdir()
+        (run / "config.json").write_text(json.dumps({
+            "env_config": {"rises": {"levels": 16}},
+            "train_config": {"num_envs": 4, "num_steps_per_env": 2}}))
+        writer = SummaryWriter(str(run))
+        for i in range(count):
+            writer.add_scalar("rise_level/sitting", level(i), 100 + i)
+            writer.add_scalar("pose_stood_up/sitting", 0.5, 100 + i)
+        writer.add_scalar("rise_level/sitting", 9.0, 50)  # before the fork: not counted
+        writer.close()
+    monkeypatch.setattr(sys, "argv", ["plot_fork_ab.py", f"a={dirs['a']}", f"b={dirs['b']}",
+                                      "--since", "100", "--block", "10",
+                                      "--out", str(tmp_path / "ab.png")])
+    module.main()
+    rows = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| a")
+            or line.startswith("| b")]
+    assert rows == ["| a | sitting | 60 | 5 | 2.0 at 129 |",
+                    "| b | sitting | 30 | 2 | 2.0 at 129 |"]
+    assert (tmp_path / "ab.png").stat().st_size > 0
+    with pytest.raises(ValueError, match="b: no rise_level/<pose> logged from iteration 200"):
+        module.fork_table({"b": module.read_scalars(dirs["b"])}, 200, 10)
