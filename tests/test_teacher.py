@@ -156,6 +156,36 @@ def test_the_steps_fit_the_teacher_and_stop_once_annealed():
     assert resumed.updates == 61 and resumed.learning_rate() == 0.0
 
 
+def test_the_anchor_keeps_the_actor_on_its_own_states():
+    """Teacher states and rollout states apart: with the anchor the actor learns the
+    teacher's actions and keeps its outputs on the rollout's states; without it they
+    drift with the teacher."""
+    rng = np.random.default_rng(1)
+    taught = 0.1 * rng.normal(size=(256, 87)).astype(np.float32)
+    taught[:, 0] += 3.0
+    own = 0.1 * rng.normal(size=(256, 87)).astype(np.float32)
+    own[:, 0] -= 3.0
+    own[:, 1] += 1.0
+    target = np.ones((256, 27), np.float32)
+    drift = {}
+    for weight in (0.0, 1.0):
+        torch.manual_seed(0)
+        actor = LinearActor()
+        with torch.no_grad():
+            before = actor(TensorDict({"policy": torch.as_tensor(own)}, batch_size=[256]))
+        cfg = TeacherConfig(learning_rate=0.01, anneal_iterations=1000, steps=4,
+                            batch_size=128, anchor=weight)
+        teacher = Teacher(taught, target, np.zeros(87, np.float32), cfg, seed=2)
+        first = teacher.step(actor, (torch.as_tensor(own), before))
+        for _ in range(100):
+            out = teacher.step(actor, (torch.as_tensor(own), before))
+        with torch.no_grad():
+            after = actor(TensorDict({"policy": torch.as_tensor(own)}, batch_size=[256]))
+        drift[weight] = float((after - before).pow(2).sum(-1).mean())
+        assert out["teacher"] < 0.2 * first["teacher"] and ("anchor" in out) == (weight > 0)
+    assert drift[1.0] < 0.1 * drift[0.0]
+
+
 def test_the_observation_noise_is_the_trainings():
     noisy = Teacher(np.zeros((4, 87), np.float32), np.zeros((4, 27), np.float32),
                     noise_of(NoiseConfig()), TeacherConfig(learning_rate=1.0, batch_size=4096))

@@ -141,10 +141,20 @@ class Teacher:
         """Step size now: lr₀ · max(0, 1 − updates / anneal_iterations)."""
         return self.cfg.learning_rate * max(0.0, 1.0 - self.updates / self.cfg.anneal_iterations)
 
-    def step(self, actor: torch.nn.Module) -> dict[str, float]:
-        """``steps`` Adam steps of L_T on ``actor`` (mean output); returns the mean L_T
-        before each step (``teacher``) and the step size (``teacher_lr``). Nothing is
-        stepped once annealed to zero."""
+    def step(self, actor: torch.nn.Module,
+             anchor: tuple[torch.Tensor, torch.Tensor] | None = None) -> dict[str, float]:
+        """``steps`` Adam steps of L_T (+ ``cfg.anchor`` · L_A) on ``actor`` (mean output).
+
+        Args:
+            anchor: (o (R, 87), μ_old (R, 27)): the rollout's actor observations and the
+                action means it was collected with; L_A = mean ‖μ_θ(o) − μ_old‖² over a
+                batch of them keeps the actor where it was on its own states.
+
+        Returns:
+            the mean L_T before each step (``teacher``), the mean L_A (``anchor``, when
+            given) and the step size (``teacher_lr``); once annealed to zero, nothing is
+            stepped and only ``teacher_lr`` is returned.
+        """
         lr = self.learning_rate()
         self.updates += 1
         if lr <= 0.0:
@@ -156,19 +166,29 @@ class Teacher:
                 self._optimizer.load_state_dict(self._saved_optimizer)
         for group in self._optimizer.param_groups:
             group["lr"] = lr
-        total = 0.0
+        total, held = 0.0, 0.0
+        n = self.cfg.batch_size
         for _ in range(self.cfg.steps):
-            idx = torch.randint(len(self.obs), (self.cfg.batch_size,), generator=self._generator)
-            noise = (2.0 * torch.rand(self.cfg.batch_size, self.obs.shape[1],
-                                      generator=self._generator) - 1.0) * self.noise
-            obs = TensorDict({"policy": self.obs[idx] + noise}, batch_size=[self.cfg.batch_size])
+            idx = torch.randint(len(self.obs), (n,), generator=self._generator)
+            noise = (2.0 * torch.rand(n, self.obs.shape[1], generator=self._generator)
+                     - 1.0) * self.noise
+            obs = TensorDict({"policy": self.obs[idx] + noise}, batch_size=[n])
             loss = (actor(obs) - self.actions[idx]).pow(2).sum(-1).mean()
+            total += loss.item()
+            if anchor is not None and self.cfg.anchor > 0.0:
+                pick = torch.randint(len(anchor[0]), (n,), generator=self._generator)
+                own = TensorDict({"policy": anchor[0][pick]}, batch_size=[n])
+                kept = (actor(own) - anchor[1][pick]).pow(2).sum(-1).mean()
+                held += kept.item()
+                loss = loss + self.cfg.anchor * kept
             self._optimizer.zero_grad()
             loss.backward()
             torch.nn.utils.clip_grad_norm_(self._optimizer.param_groups[0]["params"], 1.0)
             self._optimizer.step()
-            total += loss.item()
-        return {"teacher": total / self.cfg.steps, "teacher_lr": lr}
+        out = {"teacher": total / self.cfg.steps, "teacher_lr": lr}
+        if anchor is not None and self.cfg.anchor > 0.0:
+            out["anchor"] = held / self.cfg.steps
+        return out
 
     def state_dict(self) -> dict:
         return {"updates": self.updates,
@@ -186,9 +206,15 @@ class TeacherPPO(PPO):
     teacher: Teacher | None = None
 
     def update(self) -> dict[str, float]:
+        anchor = None
+        if self.teacher is not None:  # the rollout, before the update clears it
+            assert self.storage.observations is not None
+            assert self.storage.distribution_params is not None
+            anchor = (self.storage.observations["policy"].flatten(0, 1).clone(),
+                      self.storage.distribution_params[0].flatten(0, 1).clone())
         losses = super().update()
         if self.teacher is not None:
-            losses.update(self.teacher.step(self._raw_actor))
+            losses.update(self.teacher.step(self._raw_actor, anchor))
         return losses
 
 
