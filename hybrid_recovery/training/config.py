@@ -60,6 +60,9 @@ class TeacherConfig:
     the actor where the moves do not go. Without it (0), lr₀ 1e-4 took a fork of the
     live lineage from standing up in 100 % of its squatting episodes to 0–14 % within
     130 iterations (docs/experiments.md §11)."""
+    anchor_to_start: bool = False
+    """Anchor to the actor as it was at the teacher's first step (frozen, checkpointed)
+    instead of the rollout's own means, which move with the actor."""
 
 
 @dataclass

@@ -136,6 +136,8 @@ class Teacher:
         self._generator = torch.Generator().manual_seed(seed)
         self._optimizer: torch.optim.Adam | None = None
         self._saved_optimizer: dict | None = None
+        self._reference: dict[str, torch.Tensor] | None = None
+        self._saved_reference: dict | None = None
 
     def learning_rate(self) -> float:
         """Step size now: lr₀ · max(0, 1 − updates / anneal_iterations)."""
@@ -147,8 +149,10 @@ class Teacher:
 
         Args:
             anchor: (o (R, 87), μ_old (R, 27)): the rollout's actor observations and the
-                action means it was collected with; L_A = mean ‖μ_θ(o) − μ_old‖² over a
-                batch of them keeps the actor where it was on its own states.
+                action means it was collected with; L_A = mean ‖μ_θ(o) − μ_ref(o)‖² over
+                a batch of them keeps the actor where it was on its own states, μ_ref =
+                μ_old, or with ``cfg.anchor_to_start`` the actor frozen at the teacher's
+                first step.
 
         Returns:
             the mean L_T before each step (``teacher``), the mean L_A (``anchor``, when
@@ -178,7 +182,13 @@ class Teacher:
             if anchor is not None and self.cfg.anchor > 0.0:
                 pick = torch.randint(len(anchor[0]), (n,), generator=self._generator)
                 own = TensorDict({"policy": anchor[0][pick]}, batch_size=[n])
-                kept = (actor(own) - anchor[1][pick]).pow(2).sum(-1).mean()
+                if self.cfg.anchor_to_start:
+                    with torch.no_grad():
+                        ref = torch.func.functional_call(actor, self._reference_of(actor),
+                                                         (own,))
+                else:
+                    ref = anchor[1][pick]
+                kept = (actor(own) - ref).pow(2).sum(-1).mean()
                 held += kept.item()
                 loss = loss + self.cfg.anchor * kept
             self._optimizer.zero_grad()
@@ -190,13 +200,23 @@ class Teacher:
             out["anchor"] = held / self.cfg.steps
         return out
 
+    def _reference_of(self, actor: torch.nn.Module) -> dict[str, torch.Tensor]:
+        """The actor's parameters and buffers as they were at the teacher's first step
+        (frozen), for the anchor."""
+        if self._reference is None:
+            self._reference = self._saved_reference or {
+                k: v.detach().clone() for k, v in actor.state_dict().items()}
+        return self._reference
+
     def state_dict(self) -> dict:
         return {"updates": self.updates,
-                "optimizer": None if self._optimizer is None else self._optimizer.state_dict()}
+                "optimizer": None if self._optimizer is None else self._optimizer.state_dict(),
+                "reference": self._reference}
 
     def load_state_dict(self, state: dict) -> None:
         self.updates = int(state["updates"])
         self._saved_optimizer = state.get("optimizer")
+        self._saved_reference = state.get("reference")
 
 
 class TeacherPPO(PPO):
