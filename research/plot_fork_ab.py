@@ -96,7 +96,7 @@ def main() -> None:
             ax.grid(alpha=0.3)
             ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(args.out, dpi=90)
+    fig.savefig(args.out, dpi=70)
     print("| run | pose | iterations | highest level | level at the common end |")
     print("|---|---|---|---|---|")
     for row in rows:
