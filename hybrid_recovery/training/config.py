@@ -55,14 +55,12 @@ class TeacherConfig:
     """Recorded states per step, drawn uniformly with replacement (and as many of the
     rollout's states for the anchor)."""
     anchor: float = 1.0
-    """Weight of L_A = ‖μ_θ(o) − μ_old(o)‖² on the rollout's own states o (μ_old: the
-    means it was collected with), added to each teacher step: the teacher must not move
-    the actor where the moves do not go. Without it (0), lr₀ 1e-4 took a fork of the
-    live lineage from standing up in 100 % of its squatting episodes to 0–14 % within
-    130 iterations (docs/experiments.md §11)."""
-    anchor_to_start: bool = False
-    """Anchor to the actor as it was at the teacher's first step (frozen, checkpointed)
-    instead of the rollout's own means, which move with the actor."""
+    """Weight of L_A = ‖μ_θ(o) − μ_ref(o)‖² on the rollout's own states o, μ_ref the
+    actor as it was at the teacher's first step (frozen, checkpointed), added to each
+    teacher step: the teacher must not move the actor where the moves do not go.
+    Without it (0), lr₀ 1e-4 took a fork of the live lineage from standing up in 100 %
+    of its squatting episodes to 0–14 % within 130 iterations, and anchored to the
+    rollout's own means, which move with the actor, as well (docs/experiments.md §11)."""
 
 
 @dataclass
@@ -114,7 +112,7 @@ def train_config_from_dict(data: dict[str, Any]) -> TrainConfig:
     data = dict(data)
     for keys, cls, where in ((set(data) - {"ppo", "teacher"}, TrainConfig, "train_config"),
                              (set(data.get("ppo", {})), PPOConfig, "train_config.ppo"),
-                             (set(data.get("teacher", {})), TeacherConfig,
+                             (set(data.get("teacher", {})) - {"anchor_to_start"}, TeacherConfig,
                               "train_config.teacher")):
         unknown = sorted(keys - {f.name for f in fields(cls)})
         if unknown:
@@ -122,7 +120,9 @@ def train_config_from_dict(data: dict[str, Any]) -> TrainConfig:
                            f"of hybrid_recovery?)")
     ppo = PPOConfig(**{"mixed_precision": False,  # saved before bf16 existed: float32
                        **data.pop("ppo", {})})
-    teacher = TeacherConfig(**data.pop("teacher", {}))
+    saved_teacher = dict(data.pop("teacher", {}))
+    saved_teacher.pop("anchor_to_start", None)  # the anchor is always the frozen start now
+    teacher = TeacherConfig(**saved_teacher)
     if "hidden_dims" in data:
         data["hidden_dims"] = tuple(data["hidden_dims"])
     if "env_overrides" in data:

@@ -144,15 +144,13 @@ class Teacher:
         return self.cfg.learning_rate * max(0.0, 1.0 - self.updates / self.cfg.anneal_iterations)
 
     def step(self, actor: torch.nn.Module,
-             anchor: tuple[torch.Tensor, torch.Tensor] | None = None) -> dict[str, float]:
+             anchor: torch.Tensor | None = None) -> dict[str, float]:
         """``steps`` Adam steps of L_T (+ ``cfg.anchor`` · L_A) on ``actor`` (mean output).
 
         Args:
-            anchor: (o (R, 87), μ_old (R, 27)): the rollout's actor observations and the
-                action means it was collected with; L_A = mean ‖μ_θ(o) − μ_ref(o)‖² over
-                a batch of them keeps the actor where it was on its own states, μ_ref =
-                μ_old, or with ``cfg.anchor_to_start`` the actor frozen at the teacher's
-                first step.
+            anchor: o (R, 87), the rollout's actor observations; L_A = mean
+                ‖μ_θ(o) − μ_ref(o)‖² over a batch of them, μ_ref the actor frozen at the
+                teacher's first step, keeps the actor where it was on its own states.
 
         Returns:
             the mean L_T before each step (``teacher``), the mean L_A (``anchor``, when
@@ -180,14 +178,10 @@ class Teacher:
             loss = (actor(obs) - self.actions[idx]).pow(2).sum(-1).mean()
             total += loss.item()
             if anchor is not None and self.cfg.anchor > 0.0:
-                pick = torch.randint(len(anchor[0]), (n,), generator=self._generator)
-                own = TensorDict({"policy": anchor[0][pick]}, batch_size=[n])
-                if self.cfg.anchor_to_start:
-                    with torch.no_grad():
-                        ref = torch.func.functional_call(actor, self._reference_of(actor),
-                                                         (own,))
-                else:
-                    ref = anchor[1][pick]
+                pick = torch.randint(len(anchor), (n,), generator=self._generator)
+                own = TensorDict({"policy": anchor[pick]}, batch_size=[n])
+                with torch.no_grad():
+                    ref = torch.func.functional_call(actor, self._reference_of(actor), (own,))
                 kept = (actor(own) - ref).pow(2).sum(-1).mean()
                 held += kept.item()
                 loss = loss + self.cfg.anchor * kept
@@ -229,9 +223,7 @@ class TeacherPPO(PPO):
         anchor = None
         if self.teacher is not None:  # the rollout, before the update clears it
             assert self.storage.observations is not None
-            assert self.storage.distribution_params is not None
-            anchor = (self.storage.observations["policy"].flatten(0, 1).clone(),
-                      self.storage.distribution_params[0].flatten(0, 1).clone())
+            anchor = self.storage.observations["policy"].flatten(0, 1).clone()
         losses = super().update()
         if self.teacher is not None:
             losses.update(self.teacher.step(self._raw_actor, anchor))
