@@ -3,6 +3,7 @@ checkpoint, and the settings that switch it on."""
 
 from __future__ import annotations
 
+from dataclasses import astuple
 from pathlib import Path
 
 import numpy as np
@@ -14,6 +15,7 @@ from test_rise_starts import NV, PHASES, write_recording
 
 from hybrid_recovery.envs import RecoveryEnv, default_config
 from hybrid_recovery.envs.config import NoiseConfig, RiseConfig
+from hybrid_recovery.observation.actor import noise_halfwidths
 from hybrid_recovery.robot.action import joint_targets
 from hybrid_recovery.robot.constants import DEFAULT_JOINT_POS
 from hybrid_recovery.sim.initial_states import POSES, settle_pool
@@ -26,8 +28,10 @@ from hybrid_recovery.training.config import (
     train_config_from_dict,
 )
 from hybrid_recovery.training.runner import train
-from hybrid_recovery.training.teacher import Teacher, TeacherPPO, noise_of, teacher_samples
+from hybrid_recovery.training.teacher import Teacher, TeacherPPO, teacher_samples
 
+TRAINING_NOISE = noise_halfwidths(*astuple(NoiseConfig()))
+"""(87,) the training's actor observation noise half-widths."""
 MOVE = slice(2, 18)
 """The move's samples in each synthetic episode (:data:`tests.test_rise_starts.PHASES`)."""
 HELD = [6, 7]
@@ -190,12 +194,12 @@ def test_the_anchor_keeps_the_actor_on_its_own_states():
 
 def test_the_observation_noise_is_the_trainings():
     noisy = Teacher(np.zeros((4, 87), np.float32), np.zeros((4, 27), np.float32),
-                    noise_of(NoiseConfig()), TeacherConfig(learning_rate=1.0, batch_size=4096))
+                    TRAINING_NOISE, TeacherConfig(learning_rate=1.0, batch_size=4096))
     actor = LinearActor()
     seen = []
     actor.register_forward_hook(lambda m, args, out: seen.append(args[0]["policy"]))
     noisy.step(actor)
-    half = torch.as_tensor(noise_of(NoiseConfig()))
+    half = torch.as_tensor(TRAINING_NOISE)
     drawn = torch.cat(seen)
     assert (drawn.abs() <= half).all()
     assert (drawn[:, :60].abs().amax(0) > 0.9 * half[:60]).all()  # the full width is used

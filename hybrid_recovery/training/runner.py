@@ -237,7 +237,7 @@ def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
     env = RecoveryEnv(dataclasses.replace(env_cfg, seed=rank.seed(cfg.seed)),
                       local_rank=rank.local_rank)
     critic_dim = int(env.get_observations()["critic"].shape[1])
-    teacher = make_teacher(cfg.teacher, env_cfg, env.model, rank.seed(cfg.seed)) \
+    teacher = make_teacher(cfg.teacher, env, rank.seed(cfg.seed)) \
         if cfg.teacher.learning_rate > 0.0 else None
     meta = {**policy_meta(cfg, env_cfg, critic_dim), "amendments": amendments}
     if rank.writes:

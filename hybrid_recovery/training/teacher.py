@@ -36,11 +36,11 @@ import torch
 from rsl_rl.algorithms import PPO
 from tensordict import TensorDict
 
-from hybrid_recovery.envs.config import EnvConfig, NoiseConfig
+from hybrid_recovery.envs import RecoveryEnv
 from hybrid_recovery.envs.rise_starts import move_progress
-from hybrid_recovery.observation.actor import actor_observation, noise_halfwidths
+from hybrid_recovery.observation.actor import actor_observation
 from hybrid_recovery.observation.mujoco_source import ProprioceptionMap, read_proprioception
-from hybrid_recovery.robot.action import ACTION_CLIP
+from hybrid_recovery.robot.action import clip_action
 from hybrid_recovery.robot.constants import DEFAULT_JOINT_POS
 from hybrid_recovery.training.config import TeacherConfig
 
@@ -87,8 +87,7 @@ def teacher_samples(paths: Sequence[str | Path], model: mujoco.MjModel, action_s
             on_move, _ = move_progress(rec["time"], rec["episode"], rec["phase"].astype(str))
             episode = rec["episode"]
         known = on_move & np.isfinite(goal).all(axis=1) & np.isfinite(target).all(axis=1)
-        every = np.clip((np.nan_to_num(goal) - DEFAULT_JOINT_POS) / action_scale,
-                        -ACTION_CLIP, ACTION_CLIP)
+        every = clip_action((np.nan_to_num(goal) - DEFAULT_JOINT_POS) / action_scale)
         # a_{t−1}: the previous sample's keyframe action, held ones included
         follows = np.r_[False, known[:-1] & (np.diff(episode) == 0)]
         last_every = np.where(follows[:, None], np.roll(every, 1, axis=0), every)
@@ -230,22 +229,15 @@ class TeacherPPO(PPO):
         return losses
 
 
-def noise_of(noise_cfg: NoiseConfig) -> np.ndarray:
-    """(87,) half-widths of the actor observation noise of an env's ``NoiseConfig``."""
-    return noise_halfwidths(noise_cfg.ang_vel, noise_cfg.gravity, noise_cfg.joint_pos,
-                            noise_cfg.joint_vel)
-
-
-def make_teacher(cfg: TeacherConfig, env_cfg: EnvConfig, model: mujoco.MjModel,
-                 seed: int = 0) -> Teacher:
-    """The teacher of a run: the move states and actions of the env's ``rises.files``
-    on its ``model``, with its observation noise.
+def make_teacher(cfg: TeacherConfig, env: RecoveryEnv, seed: int = 0) -> Teacher:
+    """The teacher of a run: the move states and actions of ``env``'s ``rises.files`` on
+    its model, with its actor observation noise.
 
     Raises:
         ValueError: bad settings or recordings (:func:`teacher_samples`, :class:`Teacher`).
     """
-    obs, actions = teacher_samples(env_cfg.rises.files, model, env_cfg.action_scale)
-    teacher = Teacher(obs, actions, noise_of(env_cfg.noise), cfg, seed=seed)
+    obs, actions = teacher_samples(env.cfg.rises.files, env.model, env.cfg.action_scale)
+    teacher = Teacher(obs, actions, env.noise, cfg, seed=seed)
     print(f"[hybrid-recovery] teacher: {len(obs)} recorded move states, lr0 "
           f"{cfg.learning_rate:g} annealed over {cfg.anneal_iterations} updates", flush=True)
     return teacher
