@@ -18,6 +18,7 @@ import json
 from pathlib import Path
 
 import numpy as np
+from plot_rise_pace import block_means
 
 from hybrid_recovery.training.record import read_scalars
 
@@ -79,11 +80,8 @@ def main() -> None:
                 if tag not in scalars:
                     continue
                 steps, values = scalars[tag]
-                steps, values = steps[steps >= args.since], values[steps >= args.since]
-                index = (steps - args.since) // args.block
-                keys = np.unique(index)
-                x = np.array([steps[index == b].mean() for b in keys])
-                y = np.array([values[index == b].mean() for b in keys])
+                keep = steps >= args.since
+                x, y = block_means(steps[keep], values[keep], args.block)
                 axes[i, j].plot((x - args.since) * per_iteration / 1e6,
                                 y / levels if i == 0 else y, color=f"C{k}", lw=1.2, label=label)
     for j, pose in enumerate(poses):

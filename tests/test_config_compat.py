@@ -1,6 +1,6 @@
 """Old configs still load: removed options at their neutral values are dropped, others are
 refused; the live checkpoint's run and the shipped policy's record load; the shipped recipe
-is the named variant ``recovery``."""
+is the named variant ``recovery_rises``."""
 
 from __future__ import annotations
 
@@ -23,7 +23,7 @@ from hybrid_recovery.training.runner import _resumed_config, make_env_config
 from hybrid_recovery.training.variants import VARIANTS, variant_train_config
 
 ROOT = Path(__file__).resolve().parents[1]
-LIVE_RUN = ROOT / "training" / "checkpoints" / "full_bridge_focus"
+LIVE_RUN = ROOT / "training" / "checkpoints" / "recovery_rises"
 RECORD = SHIPPED_POLICY / "training_record.json"
 
 
@@ -68,11 +68,10 @@ def test_a_saved_env_config_with_removed_sections_loads_and_unknown_keys_do_not(
 
 def test_the_shipped_record_loads():
     record = json.loads(RECORD.read_text())
-    assert "w_shin" in record["env_config"]["rewards"]  # saved before the removal
     env = env_config_from_dict(record["env_config"])
-    assert env.bridge.levels == 16 and env.assist.poses == ["prone"]
+    assert env.rises.levels == 16 and env.assist.poses == ["prone"]
     train_cfg = train_config_from_dict(record["train_config"])
-    assert train_cfg.max_std == 0.6
+    assert train_cfg.max_std == 0.6 and train_cfg.teacher.learning_rate == 1e-4
 
 
 def test_the_live_checkpoints_run_resumes_with_its_saved_settings():
@@ -91,21 +90,27 @@ def test_the_live_checkpoints_run_resumes_with_its_saved_settings():
     assist.load_state_dict(infos["assist"])
     bridge.load_state_dict(infos["bridge"])
     assert (curriculum.stage, curriculum.level) == (3, 1.0)
-    assert bridge.level == infos["bridge"]["level"] and assist.fraction == \
-        infos["assist"]["fraction"]
-    assert len(bridge._outcomes["sitting"]) == len(infos["bridge"]["outcomes"]["sitting"])
+    assert assist.fraction == infos["assist"]["fraction"]
+    for pose, level in infos["bridge"]["level"].items():  # none where rises replace them
+        assert bridge.level[pose] == level
+        assert len(bridge._outcomes[pose]) == len(infos["bridge"]["outcomes"][pose])
+    # the rise levels, of the run's K (their recordings are written by `getup record`)
+    assert infos["rises"]["levels"] == env_cfg.rises.levels == 16
+    assert set(infos["rises"]["level"]) == {"sitting", "supine"}
 
 
-def test_the_recovery_variant_is_the_shipped_recipe():
-    """``--variant recovery`` gives the record's train and env configs (the record's
+def test_the_recovery_rises_variant_is_the_shipped_recipe():
+    """``--variant recovery_rises`` gives the record's train and env configs (the record's
     config is its run's with every amendment applied), and applying the amendments once
     more changes nothing."""
     record = json.loads(RECORD.read_text())
-    ours = variant_train_config("recovery")
+    ours = variant_train_config("recovery_rises")
     shipped = train_config_from_dict(record["train_config"])
-    assert dataclasses.replace(ours, variant="", env_overrides={}) == \
-        dataclasses.replace(shipped, variant="", env_overrides={})
-    assert _plain(make_env_config(ours)) == _plain(env_config_from_dict(record["env_config"]))
+    machine = {"num_threads": 2, "torch_threads": None}  # how it ran, not what it learned
+    assert dataclasses.replace(ours, variant="", env_overrides={}, **machine) == \
+        dataclasses.replace(shipped, variant="", env_overrides={}, **machine)
+    assert _plain(make_env_config(ours)) == \
+        {**_plain(env_config_from_dict(record["env_config"])), "num_threads": 2}
     amended = ours
     for amendment in record["amendments"]:
         amended = amend_train_config(amended, amendment["changes"])

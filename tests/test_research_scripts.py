@@ -277,3 +277,40 @@ def test_fork_ab_compares_the_levels_up_to_the_iteration_both_runs_reached(tmp_p
     assert (tmp_path / "ab.png").stat().st_size > 0
     with pytest.raises(ValueError, match="b: no rise_level/<pose> logged from iteration 200"):
         module.fork_table({"b": module.read_scalars(dirs["b"])}, 200, 10)
+
+
+def test_plot_deployment_pace_reads_each_checkpoints_rates_and_env_steps(tmp_path, monkeypatch,
+                                                                         capsys):
+    """Three evaluated checkpoints (one before the rises came in): per pose the successes of
+    each results file, x the env steps since the origin's."""
+    module = _script("plot_deployment_pace")
+
+    def results(name: str, iteration: int, env_steps: int, wins: dict[str, tuple[int, int]]
+                ) -> Path:
+        out = tmp_path / name
+        out.mkdir()
+        lines = [{"key": "__header__", "controller": "onnx:x", "protocol": "poses",
+                  "policy": {"iteration": iteration, "env_steps": env_steps}}]
+        for pose, (k, n) in wins.items():
+            lines += [{"key": f"{pose}{i}", "pose": pose, "success": i < k} for i in range(n)]
+        (out / "results.jsonl").write_text("\n".join(json.dumps(x) for x in lines) + "\n")
+        return out
+
+    old = results("old", 10, 90_000_000, {"sitting": (0, 10), "supine": (1, 10)})
+    origin = results("origin", 12, 100_000_000, {"sitting": (0, 10), "supine": (0, 10)})
+    new = results("new", 15, 125_500_000, {"sitting": (7, 10), "supine": (3, 4)})
+    monkeypatch.setattr(sys, "argv", ["plot_deployment_pace.py", f"old={old},{origin}",
+                                      f"new={new}", "--origin", str(origin),
+                                      "--out", str(tmp_path / "pace.png")])
+    module.main()
+    rows = [line for line in capsys.readouterr().out.splitlines()
+            if line.startswith(("| old", "| new"))]
+    assert rows == ["| old | 10 | -10.0 | 0/10 (0.0 %) | 1/10 (10.0 %) |",
+                    "| old | 12 | +0.0 | 0/10 (0.0 %) | 0/10 (0.0 %) |",
+                    "| new | 15 | +25.5 | 7/10 (70.0 %) | 3/4 (75.0 %) |"]
+    assert (tmp_path / "pace.png").stat().st_size > 0
+    (tmp_path / "qp").mkdir()
+    (tmp_path / "qp" / "results.jsonl").write_text(
+        json.dumps({"key": "__header__", "controller": "qp"}) + "\n")
+    with pytest.raises(ValueError, match="names no checkpoint with env steps"):
+        module.checkpoint_rates(tmp_path / "qp")

@@ -265,3 +265,7 @@ def test_without_a_teacher_the_algorithm_is_rsl_rls_ppo(tmp_path, recording):
 def test_a_run_saved_with_the_anchor_switch_resumes_with_the_frozen_anchor():
     cfg = train_config_from_dict({"teacher": {"learning_rate": 1e-4, "anchor_to_start": True}})
     assert cfg.teacher == TeacherConfig(learning_rate=1e-4)
+    # its recorded amendment replays to the same settings (the training record's check)
+    assert amend_train_config(cfg, {"teacher.anchor_to_start": True,
+                                    "teacher.anneal_iterations": 300}).teacher == \
+        TeacherConfig(learning_rate=1e-4, anneal_iterations=300)

@@ -189,9 +189,10 @@ def run_protocol(scenarios: list[Scenario], controller: str, results: str | Path
         except KeyboardInterrupt:
             if progress and count:
                 print(file=sys.stderr)
+            out.flush()  # the interrupt may fall between a row's write and its count
             raise EvaluationInterrupted(
-                f"interrupted: {len(done) + count} of {len(done) + len(todo)} trials are in "
-                f"{results}; the same command resumes") from None
+                f"interrupted: {len(completed_keys(results))} of {len(done) + len(todo)} "
+                f"trials are in {results}; the same command resumes") from None
         finally:
             if pool is not None:
                 pool.terminate()

@@ -100,6 +100,11 @@ class TrainConfig:
     """Dotted EnvConfig overrides applied after the variant's."""
 
 
+REMOVED_TEACHER = frozenset({"anchor_to_start"})
+"""Teacher settings removed since (the anchor is always the actor frozen at the teacher's
+first step): ignored where saved configs and recorded amendments hold them."""
+
+
 def train_config_from_dict(data: dict[str, Any]) -> TrainConfig:
     """The TrainConfig saved in a run's ``config.json`` (``train_config``); environment
     options removed since (:data:`hybrid_recovery.envs.removed.REMOVED`) are dropped from
@@ -112,7 +117,7 @@ def train_config_from_dict(data: dict[str, Any]) -> TrainConfig:
     data = dict(data)
     for keys, cls, where in ((set(data) - {"ppo", "teacher"}, TrainConfig, "train_config"),
                              (set(data.get("ppo", {})), PPOConfig, "train_config.ppo"),
-                             (set(data.get("teacher", {})) - {"anchor_to_start"}, TeacherConfig,
+                             (set(data.get("teacher", {})) - REMOVED_TEACHER, TeacherConfig,
                               "train_config.teacher")):
         unknown = sorted(keys - {f.name for f in fields(cls)})
         if unknown:
@@ -120,9 +125,8 @@ def train_config_from_dict(data: dict[str, Any]) -> TrainConfig:
                            f"of hybrid_recovery?)")
     ppo = PPOConfig(**{"mixed_precision": False,  # saved before bf16 existed: float32
                        **data.pop("ppo", {})})
-    saved_teacher = dict(data.pop("teacher", {}))
-    saved_teacher.pop("anchor_to_start", None)  # the anchor is always the frozen start now
-    teacher = TeacherConfig(**saved_teacher)
+    teacher = TeacherConfig(**{k: v for k, v in data.pop("teacher", {}).items()
+                               if k not in REMOVED_TEACHER})
     if "hidden_dims" in data:
         data["hidden_dims"] = tuple(data["hidden_dims"])
     if "env_overrides" in data:
@@ -164,6 +168,8 @@ def amend_train_config(cfg: TrainConfig, changes: dict[str, Any]) -> TrainConfig
             ppo[name] = checked_value(key, value, get_type_hints(PPOConfig)[name])
         elif key.startswith("teacher."):
             name = key.removeprefix("teacher.")
+            if name in REMOVED_TEACHER:
+                continue
             if name not in teacher:
                 raise KeyError(f"unknown teacher setting '{name}'; known: {sorted(teacher)}")
             teacher[name] = checked_value(key, value, get_type_hints(TeacherConfig)[name])

@@ -28,11 +28,11 @@ RECOVERY_ENV: dict[str, Any] = {
     "bridge.retreat": 0.1,
     "bridge.window": 128,
 }
-"""The shipped policy's environment (``models/policies/h1_2_recovery``, its record's
-configuration with every amendment applied): beyond the paper's setting, pose weights
-toward the hard poses, the flat-feet reward r_feet, a torso pull of 0.8 m g for prone
-starts annealed by their stand-ups, and start-pose bridges from squatting to sitting and
-supine in 16 levels."""
+"""The environment of the shipped policy's lineage before the recorded rises (its
+record's configuration with every amendment to iteration 12,650 applied): beyond the
+paper's setting, pose weights toward the hard poses, the flat-feet reward r_feet, a torso
+pull of 0.8 m g for prone starts annealed by their stand-ups, and start-pose bridges from
+squatting to sitting and supine in 16 levels (unused for a pose with recorded rises)."""
 
 RISE_FILES = ("rises/sitting.npz", "rises/supine.npz")
 """Recorded hybrid rises of ``recovery_rises``, relative to the working directory; write
@@ -41,10 +41,10 @@ rises/sitting.npz`` (and supine)."""
 
 VARIANTS: dict[str, dict[str, Any]] = {
     "full": {},
-    # the shipped recipe
+    # the recipe of the lineage's first 12,650 iterations (no recorded rises)
     "recovery": RECOVERY_ENV,
-    # the shipped recipe with starts along recorded rises for sitting and supine
-    "recovery_rises": {**RECOVERY_ENV, "rises.files": list(RISE_FILES)},
+    # the shipped recipe: it with starts along recorded rises for sitting and supine
+    "recovery_rises": {**RECOVERY_ENV, "rises.files": list(RISE_FILES), "rises.levels": 16},
     # the paper's ablation: all three removed together
     "reduced": {"privileged_critic": False, "rewards.use_capture_point": False,
                 "curriculum.enabled": False},
@@ -58,12 +58,13 @@ VARIANTS: dict[str, dict[str, Any]] = {
 VARIANT_TRAIN: dict[str, dict[str, Any]] = {
     "recovery": {"init_std": 0.5, "max_std": 0.6, "save_interval": 25,
                  "ppo.mixed_precision": False},
-    "recovery_rises": {"init_std": 0.5, "max_std": 0.6, "save_interval": 25},
+    "recovery_rises": {"init_std": 0.5, "max_std": 0.6, "save_interval": 25,
+                       "teacher.learning_rate": 1e-4, "teacher.anneal_iterations": 300},
 }
 """Variant name → TrainConfig settings other than the defaults (``ppo.<field>`` for PPO,
 ``teacher.<field>`` for the teacher);
-absent: the defaults. ``recovery`` keeps the float32 update its policy was trained
-with, so that it stays the shipped recipe."""
+absent: the defaults. ``recovery`` keeps the float32 update its iterations were trained
+with."""
 
 
 def variant_overrides(name: str) -> dict[str, Any]:
