@@ -95,6 +95,22 @@ def test_export_onnx_matches_torch(trained_run, tmp_path):
     np.testing.assert_allclose(onnx_act, torch_act, atol=1e-5)
 
 
+def test_a_copied_checkpoint_without_logs_exports_without_curves(trained_run, tmp_path,
+                                                                  capsys):
+    """As `training/checkpoints/…` is: a checkpoint and its config.json, no TensorBoard logs."""
+    run, _ = trained_run
+    copied = tmp_path / "copied"
+    copied.mkdir()
+    for name in ("latest.pt", "config.json"):
+        (copied / name).write_bytes((run / name).read_bytes())
+    out = export_policy(copied, tmp_path / "export")
+    record = json.loads((out / "training_record.json").read_text())
+    assert record["iteration"] == load_checkpoint(run / "latest.pt")["iter"]
+    assert record["final_mean_of_last_20_iterations"] == {}
+    assert (out / "policy.onnx").is_file() and not (out / "curves.png").exists()
+    assert "no training logs up to iteration" in capsys.readouterr().out
+
+
 def test_corrupt_and_foreign_checkpoints_are_refused(trained_run, tmp_path):
     run, _ = trained_run
     bad = tmp_path / "bad.pt"

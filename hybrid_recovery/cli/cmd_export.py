@@ -11,7 +11,9 @@ def _export(args: argparse.Namespace) -> int:
     from hybrid_recovery.training.export import export_policy
 
     out = export_policy(args.run_dir, args.out, args.checkpoint, args.history)
-    print(f"wrote policy.onnx, policy.json, training_record.json and curves.png to {out}")
+    names = ["policy.onnx", "policy.json", "training_record.json",
+             *(["curves.png"] if (out / "curves.png").is_file() else [])]
+    print(f"wrote {', '.join(names[:-1])} and {names[-1]} to {out}")
     return 0
 
 

@@ -69,6 +69,10 @@ def logged_iterations(scalars: Mapping[str, tuple[np.ndarray, np.ndarray]]) -> t
     return min(int(s.min()) for s in steps), max(int(s.max()) for s in steps)
 
 
+class NoLoggedScalars(ValueError):
+    """A run directory without TensorBoard scalars (a copied checkpoint, say)."""
+
+
 def load_lineage(run_dirs: Sequence[str | Path]
                  ) -> tuple[dict[str, tuple[np.ndarray, np.ndarray]], list[dict]]:
     """:func:`read_lineage`'s scalars and, from the same read of the logs, each directory
@@ -81,7 +85,7 @@ def load_lineage(run_dirs: Sequence[str | Path]
     for run_dir in run_dirs:
         scalars = read_scalars(run_dir)
         if not scalars:
-            raise ValueError(f"read_lineage: {run_dir} holds no logged scalars")
+            raise NoLoggedScalars(f"read_lineage: {run_dir} holds no logged scalars")
         start, stop = logged_iterations(scalars)
         spans.append((Path(run_dir).name, start, stop))
         for tag in merged.keys() | scalars.keys():
@@ -122,7 +126,10 @@ def training_record(run_dir: str | Path, checkpoint: dict,
     ``history``: the runs ``run_dir`` was forked from, oldest first (:func:`read_lineage`).
     """
     meta = checkpoint["infos"]["meta"]
-    scalars, ranges = load_lineage([*history, run_dir])
+    try:
+        scalars, ranges = load_lineage([*history, run_dir])
+    except NoLoggedScalars:  # a copied checkpoint: what the checkpoint itself holds
+        scalars, ranges = {}, []
     iteration = int(checkpoint["iter"])
     # the run may have logged past the exported checkpoint: the lineage ends at it
     ranges = [{**span, "last_iteration": min(span["last_iteration"], iteration)}
