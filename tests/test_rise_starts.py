@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 import torch
 
-from hybrid_recovery.envs import RecoveryEnv, apply_overrides, default_config
+from hybrid_recovery.envs import RecoveryEnv, default_config
 from hybrid_recovery.envs.config import BridgeConfig, RiseConfig
 from hybrid_recovery.envs.rise_starts import (
     RiseStarts,
@@ -242,33 +242,6 @@ def test_an_env_resets_from_recorded_states_and_steps_without_nan(sitting_file):
     assert env.rises.state_dict()["outcomes"]["sitting"] == [True] * int(sit.sum())
     assert log["rise_level/sitting"] == 2.0 and "bridge_blend/sitting" not in log
     assert log["rise_rate/sitting"] == 1.0
-
-
-def test_a_share_of_a_recorded_poses_starts_is_its_own_and_does_not_move_the_level(
-        sitting_file):
-    cfg = default_config()
-    cfg.num_envs, cfg.num_threads, cfg.seed = 400, 1, 3
-    cfg.curriculum.enabled = False
-    cfg.pose_weights = {"sitting": 1.0}
-    cfg.rises = RiseConfig(files=(str(sitting_file),), levels=4, window=10_000,
-                           pose_share=0.25)
-    env = RecoveryEnv(cfg)
-    env.rises.level["sitting"] = 2
-    ids = np.arange(env.num_envs)
-    env._reset(ids)
-    own = env.start_level == 4  # K: the pose's own settled starts
-    assert set(env.start_level) == {2, 4} and 0.19 < own.mean() < 0.31
-    moves = env.rises.moves["sitting"]
-    recorded = {row.tobytes() for row in moves.qpos[:, 7:]}
-    assert not any(env.qpos[i, 7:].tobytes() in recorded for i in np.flatnonzero(own))
-    assert all(env.qpos[i, 7:].tobytes() in recorded for i in np.flatnonzero(~own))
-    assert (env.qvel[own] == 0).all()
-    env.stood_up[:] = own  # only the own starts rose: the level's window holds failures
-    env._episode_log(ids, {n: np.zeros(env.num_envs, bool) for n in
-                           ("torso_contact", "stuck_low", "nan", "timeout")})
-    assert env.rises.state_dict()["outcomes"]["sitting"] == [False] * int((~own).sum())
-    with pytest.raises(ValueError, match="rises.pose_share"):
-        apply_overrides(default_config(), {"rises.pose_share": 1.5})
 
 
 def test_the_rise_levels_are_checkpointed_and_resumed(tmp_path, sitting_file):

@@ -275,11 +275,6 @@ class RiseConfig:
     """Stand-up rate over ``window`` below which the starts move one stretch back."""
     window: int = 128
     """Finished episodes from the current level per decision."""
-    pose_share: float = 0.0
-    """Share of a recorded pose's episodes that start from the pose's own settled starts
-    while its level is below K (their outcomes do not move the level); 0: every episode
-    starts from the current stretch. The deployment starts are the pose's own: without
-    them the actor is not trained from there until the level reaches K."""
 
 
 @dataclass

@@ -56,7 +56,6 @@ RANGES: dict[str, tuple[float, bool, float]] = {
     "rises.advance": (0.0, False, 1.0),
     "rises.retreat": (0.0, True, 1.0),
     "rises.window": (1, True, math.inf),
-    "rises.pose_share": (0.0, True, 1.0),
     "ppo.clip_param": (0.0, False, math.inf),
     "ppo.gamma": (0.0, False, 1.0),
     "ppo.lam": (0.0, True, 1.0),

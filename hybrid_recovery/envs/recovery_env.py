@@ -358,13 +358,8 @@ class RecoveryEnv(VecEnv):
             if not len(rows):
                 continue
             if self.rises.active(name):
-                own = rng.random(len(rows)) < self.cfg.rises.pose_share
-                rows, settled_rows = rows[~own], rows[own]
                 levels[rows], recorded[rows] = self.rises.level[name], True
                 qpos[rows], qvel[rows] = self.rises.draw(name, len(rows), rng)
-                levels[settled_rows] = self.cfg.rises.levels
-                pool = self.pool[name][0]
-                qpos[settled_rows] = pool[rng.integers(len(pool), size=len(settled_rows))]
                 continue
             if not self.bridge.active(name):
                 pool = self.pool[name][0]
