@@ -11,7 +11,7 @@ from torch.utils.tensorboard import SummaryWriter
 from hybrid_recovery.evaluation.ablation import ablation_table, run_metrics
 from hybrid_recovery.training import record as record_module
 from hybrid_recovery.training.record import (
-    FINAL_WINDOW,
+    FINAL_KEY,
     load_lineage,
     plot_curves,
     read_lineage,
@@ -55,9 +55,9 @@ def test_record_figures_up_to_the_checkpoint(tmp_path):
         "curriculum": {"stage": 1, "level": 0.0, "outcomes": [True] * 5}}}
     record = training_record(tmp_path, checkpoint)
     assert record["compute_time_s"] == 70 * 5.0  # iterations 0..69, each counted once
-    final = record[f"final_mean_of_last_{FINAL_WINDOW}_iterations"]["episode/success"]
+    final = record[FINAL_KEY]["episode/success"]
     assert np.isclose(final, np.mean(np.arange(50, 70) / 100.0))
-    supine = record[f"final_mean_of_last_{FINAL_WINDOW}_iterations"]["pose_stood_up/supine"]
+    supine = record[FINAL_KEY]["pose_stood_up/supine"]
     assert np.isclose(supine, np.mean([0.5] * 5 + [1.0] * 5))  # odd iterations 51..69
     assert record["curriculum"] == {"stage": 1, "level": 0.0}
     assert plot_curves(tmp_path, tmp_path / "curves.png").stat().st_size > 10_000

@@ -14,7 +14,7 @@ from hybrid_recovery.observation import ACTOR_OBS_DIM, ACTOR_TERMS
 from hybrid_recovery.policy.description import POLICY_FORMAT, load_policy_description
 from hybrid_recovery.robot import constants
 from hybrid_recovery.training.checkpoint import load_checkpoint, load_latest
-from hybrid_recovery.training.record import FINAL_WINDOW, plot_curves, training_record
+from hybrid_recovery.training.record import FINAL_KEY, plot_curves, training_record
 
 __all__ = ["POLICY_FORMAT", "actor_from_checkpoint", "export_policy", "load_policy_description",
            "policy_description"]
@@ -88,7 +88,7 @@ def export_policy(run_dir: str | Path, out_dir: str | Path | None = None,
     (out / "policy.json").write_text(json.dumps(desc, indent=2))
     record = training_record(run_dir, data, history)
     (out / "training_record.json").write_text(json.dumps(record, indent=2, default=str))
-    if record[f"final_mean_of_last_{FINAL_WINDOW}_iterations"]:
+    if record[FINAL_KEY]:
         plot_curves({run_dir.name: [*history, run_dir]}, out / "curves.png",
                     upto=int(data["iter"]))
     else:

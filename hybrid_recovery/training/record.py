@@ -28,6 +28,8 @@ CURVES: tuple[tuple[str, str], ...] = (
 
 FINAL_WINDOW = 20
 """Iterations averaged for the record's final figures."""
+FINAL_KEY = f"final_mean_of_last_{FINAL_WINDOW}_iterations"
+"""The record's key of those figures (empty where no logs reach the checkpoint)."""
 
 
 def read_scalars(run_dir: str | Path) -> dict[str, tuple[np.ndarray, np.ndarray]]:
@@ -157,7 +159,7 @@ def training_record(run_dir: str | Path, checkpoint: dict,
         "amendments": meta.get("amendments", []),
         "curriculum": _without_outcomes(checkpoint["infos"].get("curriculum")),
         "assist": _without_outcomes(checkpoint["infos"].get("assist")),
-        f"final_mean_of_last_{FINAL_WINDOW}_iterations": final,
+        FINAL_KEY: final,
         **({"lineage": ranges} if history else {}),
     }
 
