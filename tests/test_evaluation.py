@@ -128,6 +128,30 @@ def test_protocol_grids():
     assert len(pushes_protocol(2)) == 10 * 4 * 2
 
 
+@pytest.mark.parametrize("protocol", [lambda: sweep_protocol(2, seed=2),
+                                      lambda: pushes_protocol(3, seed=2)])
+def test_push_trials_start_apart_except_mirrored_left_right_twins(protocol):
+    """Independent trials (a grid of one start would make its intervals too narrow); a
+    right push shares its left twin's seed (and starts from its mirror image)."""
+    trials = protocol()
+    lateral = [s for s in trials if abs(np.sin(s.direction)) > 0.5]
+    assert len({s.seed for s in trials}) == len(trials) - len(lateral) // 2
+    by_key = {(s.pose, s.force, round(s.direction, 6), s.height, s.seed) for s in trials}
+    assert all((s.pose, s.force, round(-s.direction, 6), s.height, s.seed) in by_key
+               for s in lateral)
+    other_seed = {s.seed for s in (sweep_protocol(2, seed=3) if len(trials) > 200
+                                   else pushes_protocol(3, seed=3))}
+    assert not other_seed & {s.seed for s in trials}
+
+
+def test_a_cell_draws_the_same_starts_whatever_runs_beside_it():
+    cell = sweep_protocol(3, seed=2, poses=("sitting",), forces=(200.0,),
+                          directions=("right",), heights=(0.2,))
+    full = [s for s in sweep_protocol(3, seed=2) if s.pose == "sitting" and s.force == 200.0
+            and s.direction == cell[0].direction and s.height == 0.2]
+    assert [s.seed for s in cell] == [s.seed for s in full] and len(cell) == 3
+
+
 def test_eval_poses_restricts_the_poses_protocol_too():
     from argparse import Namespace
 

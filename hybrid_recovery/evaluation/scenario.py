@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import itertools
 from collections.abc import Callable
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
@@ -68,29 +68,48 @@ def poses_protocol(trials: int, seed: int = 0, poses: tuple[str, ...] = SWEEP_PO
             for i, p in enumerate(picks)]
 
 
+def cell_seed(seed: int, scenario: Scenario, k: int) -> int:
+    """The start seed of trial ``k`` of a push cell: its own for every pose, force, height
+    and push axis (front, back, lateral), so that the trials of a grid are independent
+    and a cell draws the same starts whichever other cells run beside it. A left and a
+    right push share the axis, hence the seed: the right one starts from the mirror image
+    of the left one's state (:func:`hybrid_recovery.evaluation.trial.start_state`)."""
+    axis = 2 if abs(np.sin(scenario.direction)) > 1e-9 else int(np.cos(scenario.direction) < 0)
+    entropy = [seed, k, SWEEP_POSES.index(scenario.pose) if scenario.pose in SWEEP_POSES
+               else len(SWEEP_POSES) + sorted(POSES).index(scenario.pose),
+               round(scenario.force * 1000), axis, round(scenario.height * 1000) + 10**6]
+    return int(np.random.SeedSequence(entropy).generate_state(1)[0])
+
+
+def _push_cells(cells, trials: int, seed: int, duration: float) -> list[Scenario]:
+    out = []
+    for (pose, force, direction, height), k in itertools.product(cells, range(trials)):
+        cell = Scenario(pose, force, SWEEP_DIRECTIONS[direction], height, duration=duration,
+                        noise=PUSH_NOISE)
+        out.append(replace(cell, seed=cell_seed(seed, cell, k)))
+    return out
+
+
 def sweep_protocol(trials_per_cell: int = 1, seed: int = 0,
                    poses: tuple[str, ...] = SWEEP_POSES,
                    forces: tuple[float, ...] = SWEEP_FORCES,
                    directions: tuple[str, ...] = tuple(SWEEP_DIRECTIONS),
                    heights: tuple[float, ...] = SWEEP_HEIGHTS,
                    duration: float = 20.0) -> list[Scenario]:
-    """The sim-to-sim grid: poses × forces × directions × heights × k trials."""
-    out = []
-    for pose, force, direction, height, k in itertools.product(
-            poses, forces, directions, heights, range(trials_per_cell)):
-        out.append(Scenario(pose, force, SWEEP_DIRECTIONS[direction], height,
-                            duration=duration, seed=seed * 1_000_003 + k, noise=PUSH_NOISE))
-    return out
+    """The sim-to-sim grid: poses × forces × directions × heights × k trials, each trial
+    from its own start (:func:`cell_seed`)."""
+    return _push_cells(itertools.product(poses, forces, directions, heights),
+                       trials_per_cell, seed, duration)
 
 
 def pushes_protocol(trials_per_force: int = 1, seed: int = 0,
                     forces: tuple[float, ...] = SWEEP_FORCES[1:],
                     directions: tuple[str, ...] = tuple(SWEEP_DIRECTIONS),
                     duration: float = 6.0) -> list[Scenario]:
-    """Standing push hierarchy: pushes at the CoM height, 0.1 s, each direction."""
-    return [Scenario("standing", force, SWEEP_DIRECTIONS[d], 0.0, duration=duration,
-                     seed=seed * 1_000_003 + k, noise=PUSH_NOISE)
-            for force, d, k in itertools.product(forces, directions, range(trials_per_force))]
+    """Standing push hierarchy: pushes at the CoM height, 0.1 s, each direction, each
+    trial from its own start (:func:`cell_seed`)."""
+    return _push_cells(itertools.product(("standing",), forces, directions, (0.0,)),
+                       trials_per_force, seed, duration)
 
 
 PROTOCOLS: dict[str, Callable[..., list[Scenario]]] = {
