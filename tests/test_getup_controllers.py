@@ -9,10 +9,11 @@ import pytest
 
 from hybrid_recovery.control.supervisor import POLICY
 from hybrid_recovery.evaluation.controllers import make_controller
+from hybrid_recovery.evaluation.getup_controllers import GroundHybridController
 from hybrid_recovery.evaluation.scenario import Scenario
 from hybrid_recovery.evaluation.trial import eval_model, run_trial, start_state
 from hybrid_recovery.getup.controllers import GetupConfig, com_height, lying_still
-from hybrid_recovery.policy import is_shipped
+from hybrid_recovery.policy import SHIPPED, is_shipped, resolve_policy
 from hybrid_recovery.robot import constants
 from hybrid_recovery.sim.initial_states import seat_single
 
@@ -65,9 +66,10 @@ def test_model_controller_balances_with_the_qp_when_standing():
 
 
 @pytest.mark.skipif(not is_shipped(), reason="no shipped policy")
-def test_hybrid_rises_from_prone_through_knee_chest():
-    row = run_trial(make_controller("hybrid"), Scenario("prone", duration=20.0, seed=1),
-                    stop_on_success=True)
+def test_hybrid_with_the_moves_first_rises_from_prone_through_knee_chest():
+    controller = GroundHybridController(resolve_policy(SHIPPED),
+                                        GetupConfig(policy_first=False))
+    row = run_trial(controller, Scenario("prone", duration=20.0, seed=1), stop_on_success=True)
     info = row["controller_info"]
     assert row["success"], info
     (handover_time, state), = info["handovers"]
@@ -127,10 +129,10 @@ class _GaveUp:
 
 
 @pytest.mark.skipif(not is_shipped(), reason="no shipped policy")
-def test_the_relapse_fires_from_a_ground_state_no_move_starts_from():
-    """A robot lying still in knee-chest under the policy gets the moves again (they
-    arrive at once and hand over a second time); before, only states a move starts from
-    (sitting, supine, prone, side) counted as lying."""
+def test_the_policy_acts_first_on_the_ground_and_the_moves_come_when_it_lies_still():
+    """From prone the policy acts first; lying still for ``relapse_time`` starts the moves
+    (to knee-chest); lying still in knee-chest, a state no move starts from, starts them
+    again (they arrive at once and hand over a second time)."""
     controller = make_controller("hybrid")
     controller.supervised = stand_in = _GaveUp()
     config = controller.config
@@ -140,18 +142,36 @@ def test_the_relapse_fires_from_a_ground_state_no_move_starts_from():
     seat_single(model, data)
     mujoco.mj_forward(model, data)
     controller.reset(model, data)
+    assert controller.phase == POLICY and stand_in.resets == [0.0]
     while not controller.handovers:
         data.ctrl[:] = controller(model, data)
         mujoco.mj_step(model, data)
     first = data.time
-    assert controller.handovers[0][1] == "knee_chest"
+    assert controller.handovers[0][1] == "knee_chest" and controller.relapses == 1
+    [(start, _, message), *_] = controller.info()["moves"]
+    # lying still from the first fraction of a second (the start settles), then the
+    # relapse, the moves' settle and the first move
+    assert config.relapse_time + config.moves.settle_time <= start < 2.0 + config.moves.settle_time
+    assert "prone" in message
     while data.time < first + config.relapse_time + 1.0:
         data.ctrl[:] = controller(model, data)
         mujoco.mj_step(model, data)
     assert com_height(model, data) < config.ground_com_height
-    assert controller.relapses == 1
+    assert controller.relapses == 2
     (t1, s1), (t2, s2) = controller.handovers
     assert s1 == s2 == "knee_chest"
     # relapse after relapse_time under the policy, then the moves' settle, then arrived
     assert t2 == pytest.approx(t1 + config.relapse_time + config.moves.settle_time, abs=0.011)
     assert stand_in.resets[1:] == [t1, t2]
+
+
+@pytest.mark.skipif(not is_shipped(), reason="no shipped policy")
+def test_the_hybrid_rises_from_sitting_with_the_policy_alone_as_fast_as_the_policy():
+    """Where the policy rises, the hybrid is the policy: the same recovery, no moves."""
+    scenario = Scenario("sitting", duration=12.0, seed=3)
+    hybrid = run_trial(make_controller("hybrid"), scenario, stop_on_success=True)
+    learned = run_trial(make_controller("learned"), scenario, stop_on_success=True)
+    assert learned["success"] and hybrid["success"], hybrid["controller_info"]
+    info = hybrid["controller_info"]
+    assert info["handovers"] == [] and info["moves"] == [] and info["relapses"] == 0
+    assert hybrid["recovery_time"] == pytest.approx(learned["recovery_time"], abs=0.05)

@@ -97,9 +97,9 @@ def make_controller(spec: str):
 
     ``learned`` is the shipped policy (``onnx:shipped``); ``qp`` the QP balance controller
     alone; ``model`` the model-based half (the QP when up; when down, ground moves to
-    knee-chest, the push-up to hands and knees, held there); ``hybrid`` ground moves to
-    knee-chest, then the policy (the shipped one without a path) under the capturability
-    supervisor with the QP.
+    knee-chest, the push-up to hands and knees, held there); ``hybrid`` the policy (the
+    shipped one without a path) under the capturability supervisor with the QP, and ground
+    moves to knee-chest where the policy lies still on the ground.
 
     Raises:
         ValueError: an unknown spec, a missing path, or ``learned`` with no shipped policy.

@@ -1,12 +1,16 @@
-"""The ``hybrid`` controller with getting up: ground moves, then the supervised policy.
+"""The ``hybrid`` controller with getting up: the supervised policy, ground moves where it
+gives up.
 
-On the ground (the QP does not apply, CoM below ``GetupConfig.ground_com_height``) the
-contact-state moves (:class:`hybrid_recovery.getup.move_executor.GroundMoves`) bring the
-robot to the hand-over state, knee-chest; then the hybrid supervisor takes over
-(:class:`hybrid_recovery.evaluation.model_controllers.HybridEvalController`: the policy,
-and the QP once the robot stands). If the robot lies still on the ground under the policy
-for ``GetupConfig.relapse_time`` (:func:`hybrid_recovery.getup.controllers.lying_still`),
-whatever ground state it is in, the moves start again from that state. Everything runs on
+The hybrid supervisor (:class:`hybrid_recovery.evaluation.model_controllers.
+HybridEvalController`: the policy, and the QP once the robot stands) acts first, on the
+ground too: the policy rises from sitting and supine in about 5 s, the moves take 12 s to
+hand over. If the robot lies still on the ground under the policy for
+``GetupConfig.relapse_time`` (:func:`hybrid_recovery.getup.controllers.lying_still`),
+whatever ground state it is in, the contact-state moves
+(:class:`hybrid_recovery.getup.move_executor.GroundMoves`) bring it from that state to the
+hand-over state, knee-chest, and the supervisor takes over again (a relapse). With
+``GetupConfig.policy_first`` False a robot that starts on the ground (the QP does not
+apply, CoM below ``GetupConfig.ground_com_height``) starts with the moves. Everything runs on
 the PD-servo model at the ``learned`` controller's step: the moves' joint targets are the
 servo targets, so from a standing start this controller is the supervisor exactly.
 """
@@ -27,7 +31,7 @@ MOVES, SUPERVISOR = "moves", "supervisor"
 
 
 class GroundHybridController:
-    """Ground moves → policy → QP (``--controller hybrid``).
+    """Policy → QP, with ground moves where the policy lies still (``--controller hybrid``).
 
     Args:
         policy: ``policy.onnx`` or the directory holding it.
@@ -64,7 +68,7 @@ class GroundHybridController:
         self.move_log: list[tuple[float, str, str]] = []
         self.relapses = 0
         self._lying = 0.0
-        if (self.supervised.supervisor.mode == POLICY
+        if (not self.config.policy_first and self.supervised.supervisor.mode == POLICY
                 and com_height(model, data) < self.config.ground_com_height):
             self.mode = MOVES
             self.moves.reset(model, data)

@@ -1,7 +1,8 @@
 """Recorded rises: physically valid states along successful hybrid stand-ups.
 
 ``hybrid-recovery getup record --pose sitting --episodes N --out FILE`` runs N hybrid
-trials (ground moves, policy, QP) from a start pose with the paper's initialisation
+trials with the ground moves first (``GetupConfig.policy_first`` off: moves, policy, QP)
+from a start pose with the paper's initialisation
 noise and keeps the successful ones, sampled at 50 Hz up to the moment of success, in
 one ``.npz``:
 
@@ -19,12 +20,14 @@ one ``.npz``:
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import mujoco
 import numpy as np
 
 from hybrid_recovery.evaluation.controllers import make_controller
+from hybrid_recovery.evaluation.getup_controllers import GroundHybridController
 from hybrid_recovery.evaluation.scenario import Scenario, check_pose
 from hybrid_recovery.evaluation.trial import run_trial
 from hybrid_recovery.getup.ground_state import touching_bodies
@@ -57,6 +60,8 @@ def record_rises(pose: str, episodes: int, out: str | Path, duration: float = 30
     if not duration > 0.0:
         raise ValueError(f"duration must be > 0, got {duration}")
     ctrl = make_controller(controller)
+    if isinstance(ctrl, GroundHybridController):  # a rise through the moves, not around them
+        ctrl.config = dataclasses.replace(ctrl.config, policy_first=False)
     rows: dict[str, list] = {k: [] for k in ("qpos", "qvel", "time", "episode", "phase",
                                              "target", "goal", "contacts")}
     seeds, times = [], []

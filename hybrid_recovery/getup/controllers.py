@@ -38,9 +38,12 @@ class GetupConfig:
 
     Attributes:
         moves: Settings of the moves (goal = the hand-over state).
+        policy_first: On the ground the policy acts first and the moves only once it lies
+            still (a relapse, below). False: a robot that starts on the ground starts with
+            the moves, for a policy that does not rise from the ground itself.
         ground_com_height: Below this CoM height a robot the QP does not apply to is on
-            the ground and starts with the moves [m] (kneeling and squatting starts, with
-            the CoM near 0.55 m, go to the policy at once).
+            the ground [m] (kneeling and squatting starts, with the CoM near 0.55 m, are
+            not).
         relapse_time: Lying still this long without a break under the policy (CoM below
             ``ground_com_height``, every joint slower than ``still_joint_speed``, the base
             slower than ``still_base_speed``) starts the moves again from whatever ground
@@ -49,10 +52,11 @@ class GetupConfig:
             policy still trying to rise moves some joint at several rad/s; one that has
             given up twitches below ~1 rad/s).
         still_base_speed: Largest pelvis speed |v_b| of a robot lying still [m/s].
-        max_relapses: Most such restarts per episode.
+        max_relapses: Most such starts of the moves under the policy per episode.
     """
 
     moves: MoveConfig = field(default_factory=MoveConfig)
+    policy_first: bool = True
     ground_com_height: float = 0.45
     relapse_time: float = 1.0
     still_joint_speed: float = 2.0
