@@ -34,9 +34,10 @@ def time_update_parts(alg, repeat: int = 3) -> dict[str, float]:
 
     Each part is timed on the first mini-batch of the filled rollout storage, best of
     ``repeat`` runs, and scaled by the update's ``num_learning_epochs × num_mini_batches``
-    mini-batch steps (the normalisers run once per update). The forward passes and losses
-    run under the update's autocast setting (bf16 when ``alg.use_mixed_precision``), as in
-    rsl-rl's ``PPO.update``; the actor's includes the log-probability, entropy and KL, the
+    mini-batch steps; the normalisers and the mini-batch generator (one whole pass over
+    the epochs) are timed per update. The forward passes and losses run under the
+    update's autocast setting (bf16 when ``alg.use_mixed_precision``), as in rsl-rl's
+    ``PPO.update``; the actor's includes the log-probability, entropy and KL, the
     critic's the clipped value loss. The augmentation counts only when the symmetry
     extension is on, whose mirrored batch the other parts then see. Weights, optimiser
     state and normalisers are restored afterwards, so the storage and the networks are
@@ -45,7 +46,7 @@ def time_update_parts(alg, repeat: int = 3) -> dict[str, float]:
     steps = alg.num_learning_epochs * alg.num_mini_batches
     saved = _snapshot(alg)
     try:
-        shuffle = best_seconds(lambda: _pass_over(alg), repeat) / alg.num_mini_batches
+        shuffle = best_seconds(lambda: _pass_over(alg), repeat)
         batch = next(alg.storage.mini_batch_generator(alg.num_mini_batches, 1))
         size = batch.observations.batch_size[0]
         augment = 0.0
@@ -66,12 +67,12 @@ def time_update_parts(alg, repeat: int = 3) -> dict[str, float]:
                                      alg.critic.update_normalization(obs)), repeat)
     finally:
         _restore(alg, saved)
-    per_step = {"minibatch_shuffling": shuffle, "actor_forward": actor_fwd,
+    per_step = {"actor_forward": actor_fwd,
                 "actor_backward": actor_bwd, "critic_forward": critic_fwd,
                 "critic_backward": critic_bwd, "optimiser": optimiser,
                 "symmetry_augmentation": augment}
-    return {k: (normalisers if k == "normalisers" else per_step[k] * steps)
-            for k in UPDATE_PARTS}
+    per_update = {"normalisers": normalisers, "minibatch_shuffling": shuffle}
+    return {k: per_update[k] if k in per_update else per_step[k] * steps for k in UPDATE_PARTS}
 
 
 def ratio_noise(alg) -> float:
@@ -140,7 +141,7 @@ def _optimiser_step(alg) -> None:
 
 
 def _pass_over(alg) -> None:
-    for _ in alg.storage.mini_batch_generator(alg.num_mini_batches, 1):
+    for _ in alg.storage.mini_batch_generator(alg.num_mini_batches, alg.num_learning_epochs):
         pass
 
 

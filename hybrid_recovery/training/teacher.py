@@ -33,7 +33,6 @@ from pathlib import Path
 import mujoco
 import numpy as np
 import torch
-from rsl_rl.algorithms import PPO
 from tensordict import TensorDict
 
 from hybrid_recovery.envs import RecoveryEnv
@@ -43,6 +42,7 @@ from hybrid_recovery.observation.mujoco_source import ProprioceptionMap, read_pr
 from hybrid_recovery.robot.action import clip_action
 from hybrid_recovery.robot.constants import DEFAULT_JOINT_POS
 from hybrid_recovery.training.config import TeacherConfig
+from hybrid_recovery.training.minibatches import GatheredOncePPO
 
 _HOW = ("re-record it with `hybrid-recovery getup record --pose POSE --episodes N "
         "--out FILE`, which writes them")
@@ -212,9 +212,9 @@ class Teacher:
         self._saved_reference = state.get("reference")
 
 
-class TeacherPPO(PPO):
-    """rsl-rl's PPO followed, after every update, by the :class:`Teacher`'s steps (when
-    one is attached); the PPO update itself is untouched."""
+class TeacherPPO(GatheredOncePPO):
+    """The training's PPO followed, after every update, by the :class:`Teacher`'s steps
+    (when one is attached); the PPO update itself is untouched."""
 
     teacher: Teacher | None = None
 
