@@ -19,12 +19,13 @@ UPDATE_PARTS = ("minibatch_shuffling", "actor_forward", "actor_backward", "criti
 def fill_storage(runner) -> None:
     """One rollout of ``num_steps_per_env`` steps into ``runner.alg.storage``, then the
     returns and advantages: what ``OnPolicyRunner.learn`` does before each update."""
-    alg, env = runner.alg, runner.env
-    obs = env.get_observations()
+    alg, env, device = runner.alg, runner.env, runner.device
+    obs = env.get_observations().to(device)
     with torch.inference_mode():
         for _ in range(runner.cfg["num_steps_per_env"]):
             actions = alg.act(obs)
-            obs, rewards, dones, extras = env.step(actions)
+            obs, rewards, dones, extras = env.step(actions.to(env.device))
+            obs, rewards, dones = obs.to(device), rewards.to(device), dones.to(device)
             alg.process_env_step(obs, rewards, dones, extras)
         alg.compute_returns(obs)
 
@@ -91,7 +92,8 @@ def ratio_noise(alg) -> float:
 
 
 def _autocast(alg):
-    return torch.autocast("cpu", dtype=torch.bfloat16, enabled=alg.use_mixed_precision)
+    return torch.autocast(torch.device(alg.device).type, dtype=torch.bfloat16,
+                          enabled=alg.use_mixed_precision)
 
 
 def _actor_loss(alg, batch, size: int) -> torch.Tensor:
