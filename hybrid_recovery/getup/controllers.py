@@ -47,7 +47,9 @@ class GetupConfig:
         relapse_time: Lying still this long without a break under the policy (CoM below
             ``ground_com_height``, every joint slower than ``still_joint_speed``, the base
             slower than ``still_base_speed``) starts the moves again from whatever ground
-            state the robot is in [s].
+            state the robot is in [s]. 3 s: a policy that rises pauses for over 1 s
+            after some pushes on the manufacturer's model and rises later, which moves
+            started after 1 s cut short (``docs/experiments.md`` §9).
         still_joint_speed: Largest joint speed |q̇_j| of a robot lying still [rad/s] (a
             policy still trying to rise moves some joint at several rad/s; one that has
             given up twitches below ~1 rad/s).
@@ -58,7 +60,7 @@ class GetupConfig:
     moves: MoveConfig = field(default_factory=MoveConfig)
     policy_first: bool = True
     ground_com_height: float = 0.45
-    relapse_time: float = 1.0
+    relapse_time: float = 3.0
     still_joint_speed: float = 2.0
     still_base_speed: float = 0.2
     max_relapses: int = 2
