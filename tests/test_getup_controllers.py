@@ -10,10 +10,12 @@ import pytest
 from conftest import REFERENCE_MJCF
 
 from hybrid_recovery.control.supervisor import POLICY
+from hybrid_recovery.evaluation import getup_controllers
 from hybrid_recovery.evaluation.controllers import make_controller
 from hybrid_recovery.evaluation.getup_controllers import GroundHybridController
 from hybrid_recovery.evaluation.scenario import Scenario
 from hybrid_recovery.evaluation.trial import eval_model, run_trial, start_state
+from hybrid_recovery.getup.contact_map import maps_contacts
 from hybrid_recovery.getup.controllers import GetupConfig, com_height, lying_still
 from hybrid_recovery.policy import SHIPPED, is_shipped, resolve_policy
 from hybrid_recovery.robot import constants
@@ -181,12 +183,13 @@ def test_the_hybrid_rises_from_sitting_with_the_policy_alone_as_fast_as_the_poli
 
 
 @pytest.mark.skipif(not is_shipped(), reason="no shipped policy")
-def test_a_pause_of_the_rising_policy_is_not_taken_for_a_relapse():
+def test_a_pause_of_the_rising_policy_is_not_taken_for_a_relapse(monkeypatch):
     """On the manufacturer's model the policy, pushed over from sitting, lies still for over
-    a second before it rises (5.6 s); the hybrid lets it rise instead of starting the moves
-    (which do not run on that model's contacts), as the policy alone does."""
+    a second before it rises (5.6 s); the hybrid, its moves forced on there, lets it rise
+    instead of starting them, as the policy alone does."""
     if not REFERENCE_MJCF.is_file():
         pytest.skip(f"reference model not found at {REFERENCE_MJCF} (../shared absent)")
+    monkeypatch.setattr(getup_controllers, "maps_contacts", lambda model: True)
     scenario = Scenario("sitting", force=100.0, direction=np.pi, height=0.0, duration=12.0,
                         seed=1020123520, noise=0.25)
     kwargs = dict(model_path=REFERENCE_MJCF, rotor_inertia=True, stop_on_success=True)
@@ -195,3 +198,29 @@ def test_a_pause_of_the_rising_policy_is_not_taken_for_a_relapse():
     assert learned["success"] and learned["recovery_time"] > 4.0
     assert hybrid["success"], hybrid["controller_info"]
     assert hybrid["controller_info"]["moves"] == []
+
+
+@pytest.mark.skipif(not is_shipped(), reason="no shipped policy")
+def test_the_moves_run_only_on_a_model_with_the_named_contacts():
+    """The moves read named contacts off the project's collision geoms; on the
+    manufacturer's meshes (none of them) the hybrid never starts them: a policy that lies
+    still keeps the ground."""
+    assert maps_contacts(eval_model(None, 0.005, False, "default"))
+    if not REFERENCE_MJCF.is_file():
+        pytest.skip(f"reference model not found at {REFERENCE_MJCF} (../shared absent)")
+    controller = GroundHybridController(resolve_policy(SHIPPED), GetupConfig(policy_first=False))
+    model = eval_model(str(REFERENCE_MJCF), controller.physics_dt, False, "default")
+    assert not maps_contacts(model)
+    controller.supervised = _GaveUp()
+    data = mujoco.MjData(model)
+    data.qpos[:] = start_state(Scenario("prone", seed=0), str(REFERENCE_MJCF), "default")
+    seat_single(model, data)
+    mujoco.mj_forward(model, data)
+    controller.reset(model, data)
+    assert controller.phase == POLICY
+    while data.time < controller.config.relapse_time + 1.0:
+        data.ctrl[:] = controller(model, data)
+        mujoco.mj_step(model, data)
+    assert com_height(model, data) < controller.config.ground_com_height
+    info = controller.info()
+    assert info["moves"] == [] and info["relapses"] == 0 and not info["moves_apply"]

@@ -12,7 +12,10 @@ hand-over state, knee-chest, and the supervisor takes over again (a relapse). Wi
 ``GetupConfig.policy_first`` False a robot that starts on the ground (the QP does not
 apply, CoM below ``GetupConfig.ground_com_height``) starts with the moves. Everything runs on
 the PD-servo model at the ``learned`` controller's step: the moves' joint targets are the
-servo targets, so from a standing start this controller is the supervisor exactly.
+servo targets, so from a standing start this controller is the supervisor exactly. The
+moves run only on a model with the collision geoms the named contacts are read from
+(:func:`hybrid_recovery.getup.contact_map.maps_contacts`); on another (the manufacturer's
+meshes, where they stick) the supervisor keeps the ground.
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ import numpy as np
 
 from hybrid_recovery.control.supervisor import POLICY
 from hybrid_recovery.evaluation.model_controllers import HybridEvalController
+from hybrid_recovery.getup.contact_map import maps_contacts
 from hybrid_recovery.getup.controllers import GetupConfig, com_height, lying_still, move_events
 from hybrid_recovery.getup.move_executor import MOVING, GroundMoves
 
@@ -68,7 +72,10 @@ class GroundHybridController:
         self.move_log: list[tuple[float, str, str]] = []
         self.relapses = 0
         self._lying = 0.0
-        if (not self.config.policy_first and self.supervised.supervisor.mode == POLICY
+        # the moves need the named contacts; on another model the policy keeps the ground
+        self.moves_apply = maps_contacts(model)
+        if (self.moves_apply and not self.config.policy_first
+                and self.supervised.supervisor.mode == POLICY
                 and com_height(model, data) < self.config.ground_com_height):
             self.mode = MOVES
             self.moves.reset(model, data)
@@ -86,7 +93,7 @@ class GroundHybridController:
             self.mode = SUPERVISOR
             self.supervised.reset(model, data)
         ctrl = self.supervised(model, data)
-        if (self.supervised.supervisor.mode == POLICY
+        if (self.moves_apply and self.supervised.supervisor.mode == POLICY
                 and self.relapses < self.config.max_relapses):
             still = lying_still(model, data, self.config)
             self._lying = self._lying + model.opt.timestep if still else 0.0
@@ -102,4 +109,5 @@ class GroundHybridController:
         log = self.move_log + (move_events(self.moves) if self.mode == MOVES else [])
         inner = self.supervised.info()
         return {**inner, "final_mode": MOVES if self.mode == MOVES else inner["final_mode"],
-                "handovers": self.handovers, "moves": log, "relapses": self.relapses}
+                "handovers": self.handovers, "moves": log, "relapses": self.relapses,
+                "moves_apply": self.moves_apply}

@@ -73,3 +73,11 @@ def floor_contacts(model: mujoco.MjModel, data: mujoco.MjData
         else:
             named.add(name)
     return tuple(sorted(named)), tuple(sorted(unmapped))
+
+
+def maps_contacts(model: mujoco.MjModel) -> bool:
+    """Whether every named contact has a collision geom in ``model`` (by the names of
+    :data:`GEOM_CONTACTS`): the moves' contact states can be checked on it. The
+    manufacturer's mesh model has none."""
+    geoms = {model.geom(i).name for i in range(model.ngeom)}
+    return set(GEOM_CONTACTS.values()) <= {GEOM_CONTACTS[g] for g in geoms & GEOM_CONTACTS.keys()}
