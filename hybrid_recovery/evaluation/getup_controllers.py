@@ -13,9 +13,12 @@ hand-over state, knee-chest, and the supervisor takes over again (a relapse). Wi
 apply, CoM below ``GetupConfig.ground_com_height``) starts with the moves. Everything runs on
 the PD-servo model at the ``learned`` controller's step: the moves' joint targets are the
 servo targets, so from a standing start this controller is the supervisor exactly. The
-moves run only on a model with the collision geoms the named contacts are read from
+moves run only on a model with the collision geoms the named contacts are named after
 (:func:`hybrid_recovery.getup.contact_map.maps_contacts`); on another (the manufacturer's
-meshes, where they stick) the supervisor keeps the ground.
+meshes) the supervisor keeps the ground: there the moves reach knee-chest too, but the
+policy pauses for over 3 s before some rises, and moves started then hand over after
+18 s, too late to rise in a 20-s trial that the policy alone wins (``docs/experiments.md``
+§9).
 """
 
 from __future__ import annotations
@@ -72,7 +75,7 @@ class GroundHybridController:
         self.move_log: list[tuple[float, str, str]] = []
         self.relapses = 0
         self._lying = 0.0
-        # the moves need the named contacts; on another model the policy keeps the ground
+        # on another model than the project's the policy keeps the ground (module doc)
         self.moves_apply = maps_contacts(model)
         if (self.moves_apply and not self.config.policy_first
                 and self.supervised.supervisor.mode == POLICY

@@ -9,7 +9,12 @@ several named contacts share:
 * the torso box: ``back`` where it touches behind the torso's mid-plane (x < 0 in the
   torso frame), ``chest`` in front of it.
 
-Geoms of other models (meshes) map to nothing and are returned by name.
+A geom of another model (the manufacturer's meshes) is read by where it touches: the
+named contact, among those on its body and the bodies next to it in the tree, whose
+shape lies nearest the contact point, if within ``MESH_TOLERANCE`` (the thigh mesh
+touching at the knee is ``<side>_knee``; the wrist mesh of a handless arm is
+``<side>_hand``); anything on an ankle-roll body is a sole, split as above. A contact
+farther from every such shape maps to nothing and is returned by its geom's name.
 """
 
 from __future__ import annotations
@@ -17,10 +22,13 @@ from __future__ import annotations
 import mujoco
 import numpy as np
 
-from hybrid_recovery.getup.contacts import FLOOR_CONTACTS
+from hybrid_recovery.getup.contacts import FLOOR_CONTACTS, FloorContact
 
 _SOLE_MIDDLE = 0.0425
 """x of the sole's middle in the ankle-roll frame [m]."""
+
+MESH_TOLERANCE = 0.06
+"""Largest distance from a mesh contact point to the named contact it is read as [m]."""
 
 GEOM_CONTACTS: dict[str, str] = {
     **{name: name for name in FLOOR_CONTACTS
@@ -31,16 +39,86 @@ GEOM_CONTACTS: dict[str, str] = {
 """Collision geom name → named contact (``<side>_foot`` and ``torso`` split by where the
 contact lies)."""
 
+_DERIVED = {name for name in FLOOR_CONTACTS if name.endswith(("_toes", "_heel"))}
+"""Named contacts that are parts of another (a sole's toes and heel edges)."""
 
-def _split(model: mujoco.MjModel, data: mujoco.MjData, geom: int, name: str,
+
+def shape_distance(contact: FloorContact, origin: np.ndarray, rotation: np.ndarray,
+                   point: np.ndarray) -> float:
+    """Distance from ``point`` to a named contact's shape [m], 0 inside it: a sphere (one
+    centre), a capsule (two axis ends) or a rectangle (four corners c₀…c₃ with c₁ − c₀ ⟂
+    c₂ − c₀, as :mod:`hybrid_recovery.getup.contacts` lists them), grown by its radius.
+
+    Args:
+        contact: The named contact.
+        origin: Its body's origin in the world, shape (3,) [m].
+        rotation: Its body's orientation (body → world), shape (3, 3).
+        point: World point, shape (3,) [m].
+    """
+    c = origin + np.asarray(contact.points, dtype=float) @ rotation.T
+    rel = point - c[0]
+    nearest = c[0].copy()
+    for axis in ((c[1] - c[0],) if len(c) == 2 else (c[1] - c[0], c[2] - c[0])
+                 if len(c) == 4 else ()):
+        nearest += axis * np.clip(rel @ axis / (axis @ axis), 0.0, 1.0)
+    return max(float(np.linalg.norm(point - nearest)) - contact.radius, 0.0)
+
+
+def _nearby_contacts(model: mujoco.MjModel, body: int) -> list[tuple[FloorContact, int]]:
+    near = {body, int(model.body_parentid[body])}
+    near |= {b for b in range(model.nbody) if model.body_parentid[b] == body}
+    names = {model.body(b).name: b for b in near if b > 0}
+    return [(c, names[c.body]) for c in FLOOR_CONTACTS.values()
+            if c.body in names and c.name not in _DERIVED]
+
+
+def _read_mesh_contact(model: mujoco.MjModel, data: mujoco.MjData, geom: int,
+                       point: np.ndarray) -> str | None:
+    best, best_distance = None, MESH_TOLERANCE
+    for contact, body in _nearby_contacts(model, int(model.geom_bodyid[geom])):
+        distance = shape_distance(contact, data.xpos[body], data.xmat[body].reshape(3, 3),
+                                  point)
+        if distance <= best_distance:
+            best, best_distance = contact.name, distance
+    return best
+
+
+def _split(model: mujoco.MjModel, data: mujoco.MjData, body: int, name: str,
            positions: list[np.ndarray]) -> set[str]:
-    body = model.geom_bodyid[geom]
     local = (np.array(positions) - data.xpos[body]) @ data.xmat[body].reshape(3, 3)
     if name == "torso":
         return {"back" if x < 0.0 else "chest" for x in local[:, 0]}
     side = name.removesuffix("_foot")
     parts = {f"{side}_toes" if x > _SOLE_MIDDLE else f"{side}_heel" for x in local[:, 0]}
     return {f"{side}_foot"} if len(parts) == 2 else parts
+
+
+def _touching_geoms(model: mujoco.MjModel, data: mujoco.MjData
+                    ) -> dict[int, list[np.ndarray]]:
+    touching: dict[int, list[np.ndarray]] = {}
+    for c in data.contact[:data.ncon]:
+        b0, b1 = model.geom_bodyid[c.geom[0]], model.geom_bodyid[c.geom[1]]
+        if (b0 == 0) == (b1 == 0):
+            continue
+        geom = int(c.geom[1] if b0 == 0 else c.geom[0])
+        touching.setdefault(geom, []).append(np.array(c.pos))
+    return touching
+
+
+def _read_geom(model: mujoco.MjModel, data: mujoco.MjData, geom: int,
+               positions: list[np.ndarray]) -> set[str]:
+    """The named contacts one touching geom is read as (empty: none)."""
+    body = int(model.geom_bodyid[geom])
+    name = GEOM_CONTACTS.get(model.geom(geom).name)
+    if name is None:
+        body_name = model.body(body).name
+        if body_name.endswith("_ankle_roll_link"):
+            name = body_name.removesuffix("_ankle_roll_link") + "_foot"
+        else:
+            return {n for p in positions if (n := _read_mesh_contact(model, data, geom, p))}
+    if name == "torso" or name.endswith("_foot"):
+        return _split(model, data, body, name, positions)
+    return {name}
 
 
 def floor_contacts(model: mujoco.MjModel, data: mujoco.MjData
@@ -54,30 +132,32 @@ def floor_contacts(model: mujoco.MjModel, data: mujoco.MjData
     Returns:
         (named contacts, sorted; names of touching geoms that map to none).
     """
-    touching: dict[int, list[np.ndarray]] = {}
-    for c in data.contact[:data.ncon]:
-        b0, b1 = model.geom_bodyid[c.geom[0]], model.geom_bodyid[c.geom[1]]
-        if (b0 == 0) == (b1 == 0):
-            continue
-        geom = int(c.geom[1] if b0 == 0 else c.geom[0])
-        touching.setdefault(geom, []).append(np.array(c.pos))
     named: set[str] = set()
     unmapped: set[str] = set()
-    for geom, positions in touching.items():
-        gname = model.geom(geom).name
-        name = GEOM_CONTACTS.get(gname)
-        if name is None:
-            unmapped.add(gname or f"geom {geom}")
-        elif name == "torso" or name.endswith("_foot"):
-            named |= _split(model, data, geom, name, positions)
+    for geom, positions in _touching_geoms(model, data).items():
+        names = _read_geom(model, data, geom, positions)
+        if names:
+            named |= names
         else:
-            named.add(name)
+            unmapped.add(model.geom(geom).name or f"geom {geom}")
     return tuple(sorted(named)), tuple(sorted(unmapped))
+
+
+def floor_bodies(model: mujoco.MjModel, data: mujoco.MjData) -> frozenset[str]:
+    """The bodies touching the floor as the named contacts read them: each named contact's
+    body (a thigh mesh touching at the knee: the knee link), the own body of a geom that
+    maps to none. On the project's model, the bodies whose geoms touch."""
+    bodies: set[str] = set()
+    for geom, positions in _touching_geoms(model, data).items():
+        names = _read_geom(model, data, geom, positions)
+        bodies |= ({FLOOR_CONTACTS[n].body for n in names} if names
+                   else {model.body(model.geom_bodyid[geom]).name})
+    return frozenset(bodies)
 
 
 def maps_contacts(model: mujoco.MjModel) -> bool:
     """Whether every named contact has a collision geom in ``model`` (by the names of
-    :data:`GEOM_CONTACTS`): the moves' contact states can be checked on it. The
-    manufacturer's mesh model has none."""
+    :data:`GEOM_CONTACTS`): the project's model. The manufacturer's mesh model has none
+    (its contacts are read by where they touch)."""
     geoms = {model.geom(i).name for i in range(model.ngeom)}
     return set(GEOM_CONTACTS.values()) <= {GEOM_CONTACTS[g] for g in geoms & GEOM_CONTACTS.keys()}

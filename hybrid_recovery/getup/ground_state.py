@@ -1,7 +1,9 @@
 """Which ground state the robot is in: upright, sitting, supine, prone, knee-chest, side.
 
 Read from the torso's axes in the world (x forward out of the chest, y to the left, z up
-the spine), the pelvis and CoM heights and the bodies touching the floor.
+the spine), the pelvis and CoM heights and the bodies touching the floor as the named
+contacts read them (:func:`hybrid_recovery.getup.contact_map.floor_bodies`: on the
+manufacturer's meshes a thigh touching at the knee is the knee).
 """
 
 from __future__ import annotations
@@ -10,6 +12,7 @@ from dataclasses import dataclass
 
 import mujoco
 
+from hybrid_recovery.getup.contact_map import floor_bodies
 from hybrid_recovery.robot import constants
 
 GROUND_STATES = ("upright", "sitting", "supine", "prone", "knee_chest", "side", "other")
@@ -31,7 +34,8 @@ class GroundPose:
         spine_z: z component of the torso's up axis (+1: torso upright).
         pelvis_height: Pelvis origin height [m].
         com_height: CoM height h_c [m].
-        touching: Names of the robot's bodies touching the floor.
+        touching: Names of the robot's bodies touching the floor, as the named contacts
+            read them.
     """
 
     chest_z: float
@@ -61,7 +65,7 @@ def read_ground_pose(model: mujoco.MjModel, data: mujoco.MjData) -> GroundPose:
     rot = data.xmat[torso].reshape(3, 3)
     return GroundPose(float(rot[2, 0]), float(rot[2, 1]), float(rot[2, 2]),
                       float(data.xpos[pelvis, 2]), float(data.subtree_com[pelvis, 2]),
-                      touching_bodies(model, data))
+                      floor_bodies(model, data))
 
 
 def classify(pose: GroundPose) -> str:
