@@ -28,7 +28,8 @@ def test_shape_distance_of_a_sphere_a_capsule_and_a_rectangle():
     origin, eye = np.array([1.0, 2.0, 0.5]), np.eye(3)
     sphere = FloorContact("s", "b", ((0.1, 0.0, 0.0),), 0.05)
     assert shape_distance(sphere, origin, eye, origin + [0.1, 0.0, 0.3]) == pytest.approx(0.25)
-    assert shape_distance(sphere, origin, eye, origin + [0.1, 0.01, 0.0]) == 0.0
+    # inside: negative, by the depth
+    assert shape_distance(sphere, origin, eye, origin + [0.1, 0.01, 0.0]) == pytest.approx(-0.04)
     capsule = FloorContact("c", "b", ((0.0, 0.0, 0.0), (0.0, 0.0, -0.4)), 0.05)
     # beside its middle: to the axis; beyond an end: to that end
     assert shape_distance(capsule, origin, eye, origin + [0.2, 0.0, -0.2]) == pytest.approx(0.15)

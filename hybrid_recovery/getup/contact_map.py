@@ -19,6 +19,8 @@ farther from every such shape maps to nothing and is returned by its geom's name
 
 from __future__ import annotations
 
+import weakref
+
 import mujoco
 import numpy as np
 
@@ -44,48 +46,62 @@ _DERIVED = {name for name in FLOOR_CONTACTS if name.endswith(("_toes", "_heel"))
 
 
 def shape_distance(contact: FloorContact, origin: np.ndarray, rotation: np.ndarray,
-                   point: np.ndarray) -> float:
-    """Distance from ``point`` to a named contact's shape [m], 0 inside it: a sphere (one
-    centre), a capsule (two axis ends) or a rectangle (four corners c₀…c₃ with c₁ − c₀ ⟂
-    c₂ − c₀, as :mod:`hybrid_recovery.getup.contacts` lists them), grown by its radius.
+                   points: np.ndarray) -> np.ndarray:
+    """Signed distances from world points to a named contact's shape [m], negative inside
+    it: a sphere (one centre), a capsule (two axis ends) or a rectangle (four corners
+    c₀…c₃ with c₁ − c₀ ⟂ c₂ − c₀, as :mod:`hybrid_recovery.getup.contacts` lists them),
+    grown by its radius. A point inside two shapes is nearer the one it lies deeper in.
 
     Args:
         contact: The named contact.
         origin: Its body's origin in the world, shape (3,) [m].
         rotation: Its body's orientation (body → world), shape (3, 3).
-        point: World point, shape (3,) [m].
+        points: World points, shape (..., 3) [m].
+
+    Returns:
+        Distances, shape (...) [m].
     """
     c = origin + np.asarray(contact.points, dtype=float) @ rotation.T
-    rel = point - c[0]
-    nearest = c[0].copy()
-    for axis in ((c[1] - c[0],) if len(c) == 2 else (c[1] - c[0], c[2] - c[0])
-                 if len(c) == 4 else ()):
-        nearest += axis * np.clip(rel @ axis / (axis @ axis), 0.0, 1.0)
-    return max(float(np.linalg.norm(point - nearest)) - contact.radius, 0.0)
+    rel = np.asarray(points, dtype=float) - c[0]
+    axes = c[1:3] - c[0] if len(c) == 4 else c[1:2] - c[0]  # none, one, two edges
+    offset = rel.copy()
+    for axis in axes:
+        offset -= np.clip(rel @ axis / (axis @ axis), 0.0, 1.0)[..., None] * axis
+    return np.linalg.norm(offset, axis=-1) - contact.radius
+
+
+_NEARBY: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+"""Per model: body → the named contacts on it and the bodies next to it in the tree."""
 
 
 def _nearby_contacts(model: mujoco.MjModel, body: int) -> list[tuple[FloorContact, int]]:
-    near = {body, int(model.body_parentid[body])}
-    near |= {b for b in range(model.nbody) if model.body_parentid[b] == body}
-    names = {model.body(b).name: b for b in near if b > 0}
-    return [(c, names[c.body]) for c in FLOOR_CONTACTS.values()
-            if c.body in names and c.name not in _DERIVED]
+    table = _NEARBY.setdefault(model, {})
+    if body not in table:
+        near = {body, int(model.body_parentid[body]),
+                *np.flatnonzero(model.body_parentid == body)}
+        names = {model.body(int(b)).name: int(b) for b in near if b > 0}
+        table[body] = [(c, names[c.body]) for c in FLOOR_CONTACTS.values()
+                       if c.body in names and c.name not in _DERIVED]
+    return table[body]
 
 
-def _read_mesh_contact(model: mujoco.MjModel, data: mujoco.MjData, geom: int,
-                       point: np.ndarray) -> str | None:
-    best, best_distance = None, MESH_TOLERANCE
-    for contact, body in _nearby_contacts(model, int(model.geom_bodyid[geom])):
-        distance = shape_distance(contact, data.xpos[body], data.xmat[body].reshape(3, 3),
-                                  point)
-        if distance <= best_distance:
-            best, best_distance = contact.name, distance
-    return best
+def _read_mesh_contacts(model: mujoco.MjModel, data: mujoco.MjData, geom: int,
+                        points: np.ndarray) -> set[str]:
+    """For each contact point (k, 3) the named contact nearest it within
+    ``MESH_TOLERANCE``, as a set (empty: none)."""
+    nearby = _nearby_contacts(model, int(model.geom_bodyid[geom]))
+    if not nearby:
+        return set()
+    distances = np.array([shape_distance(c, data.xpos[b], data.xmat[b].reshape(3, 3), points)
+                          for c, b in nearby])
+    best = distances.argmin(axis=0)
+    return {nearby[i][0].name for i, d in zip(best, distances.min(axis=0), strict=True)
+            if d <= MESH_TOLERANCE}
 
 
 def _split(model: mujoco.MjModel, data: mujoco.MjData, body: int, name: str,
-           positions: list[np.ndarray]) -> set[str]:
-    local = (np.array(positions) - data.xpos[body]) @ data.xmat[body].reshape(3, 3)
+           positions: np.ndarray) -> set[str]:
+    local = (positions - data.xpos[body]) @ data.xmat[body].reshape(3, 3)
     if name == "torso":
         return {"back" if x < 0.0 else "chest" for x in local[:, 0]}
     side = name.removesuffix("_foot")
@@ -93,20 +109,19 @@ def _split(model: mujoco.MjModel, data: mujoco.MjData, body: int, name: str,
     return {f"{side}_foot"} if len(parts) == 2 else parts
 
 
-def _touching_geoms(model: mujoco.MjModel, data: mujoco.MjData
-                    ) -> dict[int, list[np.ndarray]]:
-    touching: dict[int, list[np.ndarray]] = {}
-    for c in data.contact[:data.ncon]:
-        b0, b1 = model.geom_bodyid[c.geom[0]], model.geom_bodyid[c.geom[1]]
-        if (b0 == 0) == (b1 == 0):
-            continue
-        geom = int(c.geom[1] if b0 == 0 else c.geom[0])
-        touching.setdefault(geom, []).append(np.array(c.pos))
-    return touching
+def _touching_geoms(model: mujoco.MjModel, data: mujoco.MjData) -> dict[int, np.ndarray]:
+    """Robot geoms touching the world body → their contact points, shape (k, 3) [m]."""
+    n = data.ncon
+    geoms = data.contact.geom[:n]
+    on_floor = model.geom_bodyid[geoms] == 0
+    keep = on_floor[:, 0] != on_floor[:, 1]
+    robot = np.where(on_floor[:, 0], geoms[:, 1], geoms[:, 0])[keep]
+    points = data.contact.pos[:n][keep]
+    return {int(g): points[robot == g] for g in np.unique(robot)}
 
 
 def _read_geom(model: mujoco.MjModel, data: mujoco.MjData, geom: int,
-               positions: list[np.ndarray]) -> set[str]:
+               positions: np.ndarray) -> set[str]:
     """The named contacts one touching geom is read as (empty: none)."""
     body = int(model.geom_bodyid[geom])
     name = GEOM_CONTACTS.get(model.geom(geom).name)
@@ -115,7 +130,7 @@ def _read_geom(model: mujoco.MjModel, data: mujoco.MjData, geom: int,
         if body_name.endswith("_ankle_roll_link"):
             name = body_name.removesuffix("_ankle_roll_link") + "_foot"
         else:
-            return {n for p in positions if (n := _read_mesh_contact(model, data, geom, p))}
+            return _read_mesh_contacts(model, data, geom, positions)
     if name == "torso" or name.endswith("_foot"):
         return _split(model, data, body, name, positions)
     return {name}
