@@ -10,9 +10,13 @@ from conftest import REFERENCE_MJCF
 
 from hybrid_recovery.evaluation.scenario import Scenario
 from hybrid_recovery.evaluation.trial import eval_model, start_state
-from hybrid_recovery.getup.contact_map import floor_bodies, floor_contacts, shape_distance
+from hybrid_recovery.getup.contact_map import (
+    floor_bodies,
+    floor_contacts,
+    shape_distance,
+    touching_bodies,
+)
 from hybrid_recovery.getup.contacts import FLOOR_CONTACTS, FloorContact
-from hybrid_recovery.getup.ground_state import touching_bodies
 from hybrid_recovery.robot import constants
 from hybrid_recovery.sim.initial_states import seat_single
 

@@ -30,7 +30,7 @@ from hybrid_recovery.evaluation.controllers import make_controller
 from hybrid_recovery.evaluation.getup_controllers import GroundHybridController
 from hybrid_recovery.evaluation.scenario import Scenario, check_pose
 from hybrid_recovery.evaluation.trial import run_trial
-from hybrid_recovery.getup.ground_state import touching_bodies
+from hybrid_recovery.getup.contact_map import touching_bodies
 from hybrid_recovery.robot import constants
 
 

@@ -99,8 +99,7 @@ def _read_mesh_contacts(model: mujoco.MjModel, data: mujoco.MjData, geom: int,
             if d <= MESH_TOLERANCE}
 
 
-def _split(model: mujoco.MjModel, data: mujoco.MjData, body: int, name: str,
-           positions: np.ndarray) -> set[str]:
+def _split(data: mujoco.MjData, body: int, name: str, positions: np.ndarray) -> set[str]:
     local = (positions - data.xpos[body]) @ data.xmat[body].reshape(3, 3)
     if name == "torso":
         return {"back" if x < 0.0 else "chest" for x in local[:, 0]}
@@ -109,8 +108,9 @@ def _split(model: mujoco.MjModel, data: mujoco.MjData, body: int, name: str,
     return {f"{side}_foot"} if len(parts) == 2 else parts
 
 
-def _touching_geoms(model: mujoco.MjModel, data: mujoco.MjData) -> dict[int, np.ndarray]:
-    """Robot geoms touching the world body → their contact points, shape (k, 3) [m]."""
+def touching_geoms(model: mujoco.MjModel, data: mujoco.MjData) -> dict[int, np.ndarray]:
+    """Robot geoms touching the world body (the floor) → their contact points, shape
+    (k, 3) [m]."""
     n = data.ncon
     geoms = data.contact.geom[:n]
     on_floor = model.geom_bodyid[geoms] == 0
@@ -132,8 +132,20 @@ def _read_geom(model: mujoco.MjModel, data: mujoco.MjData, geom: int,
         else:
             return _read_mesh_contacts(model, data, geom, positions)
     if name == "torso" or name.endswith("_foot"):
-        return _split(model, data, body, name, positions)
+        return _split(data, body, name, positions)
     return {name}
+
+
+def touching_bodies(model: mujoco.MjModel, data: mujoco.MjData) -> frozenset[str]:
+    """Names of the robot's bodies whose geoms touch the world body (the floor)."""
+    return frozenset(model.body(int(model.geom_bodyid[g])).name
+                     for g in touching_geoms(model, data))
+
+
+def _readings(model: mujoco.MjModel, data: mujoco.MjData) -> list[tuple[int, set[str]]]:
+    """Each touching geom with the named contacts it is read as (empty: none)."""
+    return [(geom, _read_geom(model, data, geom, points))
+            for geom, points in touching_geoms(model, data).items()]
 
 
 def floor_contacts(model: mujoco.MjModel, data: mujoco.MjData
@@ -147,26 +159,20 @@ def floor_contacts(model: mujoco.MjModel, data: mujoco.MjData
     Returns:
         (named contacts, sorted; names of touching geoms that map to none).
     """
-    named: set[str] = set()
-    unmapped: set[str] = set()
-    for geom, positions in _touching_geoms(model, data).items():
-        names = _read_geom(model, data, geom, positions)
-        if names:
-            named |= names
-        else:
-            unmapped.add(model.geom(geom).name or f"geom {geom}")
+    readings = _readings(model, data)
+    named = set().union(*(names for _, names in readings))
+    unmapped = {model.geom(geom).name or f"geom {geom}" for geom, names in readings if not names}
     return tuple(sorted(named)), tuple(sorted(unmapped))
 
 
 def floor_bodies(model: mujoco.MjModel, data: mujoco.MjData) -> frozenset[str]:
     """The bodies touching the floor as the named contacts read them: each named contact's
     body (a thigh mesh touching at the knee: the knee link), the own body of a geom that
-    maps to none. On the project's model, the bodies whose geoms touch."""
+    maps to none. On the project's model, :func:`touching_bodies`."""
     bodies: set[str] = set()
-    for geom, positions in _touching_geoms(model, data).items():
-        names = _read_geom(model, data, geom, positions)
+    for geom, names in _readings(model, data):
         bodies |= ({FLOOR_CONTACTS[n].body for n in names} if names
-                   else {model.body(model.geom_bodyid[geom]).name})
+                   else {model.body(int(model.geom_bodyid[geom])).name})
     return frozenset(bodies)
 
 

@@ -46,18 +46,6 @@ class GroundPose:
     touching: frozenset[str]
 
 
-def touching_bodies(model: mujoco.MjModel, data: mujoco.MjData) -> frozenset[str]:
-    """Names of the robot's bodies in contact with the world body (the floor)."""
-    names = set()
-    for c in data.contact[:data.ncon]:
-        b0, b1 = model.geom_bodyid[c.geom[0]], model.geom_bodyid[c.geom[1]]
-        if b0 == 0 and b1 > 0:
-            names.add(model.body(b1).name)
-        elif b1 == 0 and b0 > 0:
-            names.add(model.body(b0).name)
-    return frozenset(names)
-
-
 def read_ground_pose(model: mujoco.MjModel, data: mujoco.MjData) -> GroundPose:
     """The :class:`GroundPose` of a forwarded ``data``."""
     torso = model.body(constants.TORSO_BODY).id
