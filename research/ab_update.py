@@ -28,6 +28,7 @@ SETTINGS: dict[str, dict[str, object]] = {
     "5 epochs, fp32": {"num_learning_epochs": 5, "mixed_precision": False},
     "2 epochs, fp32": {"num_learning_epochs": 2, "mixed_precision": False},
     "5 epochs, bf16": {"num_learning_epochs": 5, "mixed_precision": True},
+    "4 epochs, bf16": {"num_learning_epochs": 4, "mixed_precision": True},
     "3 epochs, bf16": {"num_learning_epochs": 3, "mixed_precision": True},
 }
 """The compared update settings: label → PPOConfig fields."""

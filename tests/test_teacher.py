@@ -26,8 +26,9 @@ from hybrid_recovery.training.config import (
     amend_train_config,
     train_config_from_dict,
 )
-from hybrid_recovery.training.minibatches import GatheredOncePPO, GatheredOnceStorage
+from hybrid_recovery.training.minibatches import GatheredOnceStorage
 from hybrid_recovery.training.runner import train
+from hybrid_recovery.training.split_update import SplitUpdatePPO
 from hybrid_recovery.training.teacher import Teacher, TeacherPPO, teacher_samples
 
 TRAINING_NOISE = noise_halfwidths(*astuple(NoiseConfig()))
@@ -242,12 +243,12 @@ def test_a_run_with_a_teacher_saves_and_resumes_its_clock(tmp_path, recording):
     assert all(torch.equal(again[k], start[k]) for k in start)
 
 
-def test_without_a_teacher_the_algorithm_is_ppo_gathered_once(tmp_path, recording):
+def test_without_a_teacher_the_algorithm_is_the_split_update_gathered_once(tmp_path, recording):
     path, _ = recording
     cfg = TrainConfig(num_envs=8, num_steps_per_env=4, iterations=1, save_interval=1,
                       num_threads=1, env_overrides={"curriculum.enabled": False})
     runner = train(tmp_path / "plain", cfg)
-    assert type(runner.alg) is GatheredOncePPO and runner.teacher is None
+    assert type(runner.alg) is SplitUpdatePPO and runner.teacher is None
     assert type(runner.alg.storage) is GatheredOnceStorage
     assert load_checkpoint(tmp_path / "plain" / "latest.pt")["infos"]["teacher"] is None
     # switched on in a resumed run, it starts its clock at the amendment

@@ -55,8 +55,10 @@ def run_train_bench(n: int = 1024, repeat: int = 2, seed: int = 0, threads: int 
     PPO update; replays the same iterations' controls and pushes on the bare Batch for the
     physics-only rate (as ``bench env``), so ``ratio`` = end-to-end / physics-only env
     steps per second; then times the update's parts on one more rollout
-    (:func:`~hybrid_recovery.bench.update_parts.time_update_parts`) and the PPO ratio's
-    rounding noise in the update's precision
+    (:func:`~hybrid_recovery.bench.update_parts.time_update_parts`; ``rest`` is the
+    update's wall time less its parts timed one by one, negative where the critic's half
+    runs beside the actor's, :mod:`~hybrid_recovery.training.split_update`) and the PPO
+    ratio's rounding noise in the update's precision
     (:func:`~hybrid_recovery.bench.update_parts.ratio_noise`).
 
     Args:

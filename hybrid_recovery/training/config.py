@@ -186,7 +186,7 @@ def runner_dict(cfg: TrainConfig) -> dict[str, Any]:
     ppo["use_mixed_precision"] = ppo.pop("mixed_precision")
     algorithm: dict[str, Any] = {"class_name": "hybrid_recovery.training.teacher:TeacherPPO"
                                  if cfg.teacher.learning_rate > 0.0 else
-                                 "hybrid_recovery.training.minibatches:GatheredOncePPO", **ppo}
+                                 "hybrid_recovery.training.split_update:SplitUpdatePPO", **ppo}
     if symmetry:
         algorithm["symmetry_cfg"] = {
             "use_data_augmentation": True, "use_mirror_loss": False,

@@ -71,7 +71,7 @@ class GatheredOnceStorage(RolloutStorage):
 
 class GatheredOncePPO(PPO):
     """rsl-rl's PPO, its update untouched, on a :class:`GatheredOnceStorage` (the training's
-    algorithm; :class:`hybrid_recovery.training.teacher.TeacherPPO` extends it)."""
+    algorithm's base; :class:`hybrid_recovery.training.split_update.SplitUpdatePPO` extends it)."""
 
     def __init__(self, actor, critic, storage: RolloutStorage, *args, **kwargs) -> None:
         if type(storage) is RolloutStorage:  # the class only: no state to convert

@@ -42,7 +42,7 @@ from hybrid_recovery.observation.mujoco_source import ProprioceptionMap, read_pr
 from hybrid_recovery.robot.action import clip_action
 from hybrid_recovery.robot.constants import DEFAULT_JOINT_POS
 from hybrid_recovery.training.config import TeacherConfig
-from hybrid_recovery.training.minibatches import GatheredOncePPO
+from hybrid_recovery.training.split_update import SplitUpdatePPO
 
 _HOW = ("re-record it with `hybrid-recovery getup record --pose POSE --episodes N "
         "--out FILE`, which writes them")
@@ -212,7 +212,7 @@ class Teacher:
         self._saved_reference = state.get("reference")
 
 
-class TeacherPPO(GatheredOncePPO):
+class TeacherPPO(SplitUpdatePPO):
     """The training's PPO followed, after every update, by the :class:`Teacher`'s steps
     (when one is attached); the PPO update itself is untouched."""
 
