@@ -145,7 +145,7 @@ def test_train_bench_reports_split_and_physics_rate(train_bench):
     settings = dict(figures["settings"])
     assert settings.pop("omp_wait_policy") in (None, "PASSIVE", "ACTIVE")  # as the env has it
     assert settings == {"backend": "batch", "device": "cpu", "threads": 1, "torch_threads": 1,
-                        "mixed_precision": True, "num_learning_epochs": 4,
+                        "mixed_precision": True, "num_learning_epochs": 5,
                         "num_mini_batches": 4, "symmetry": False}
 
 

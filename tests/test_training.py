@@ -301,22 +301,3 @@ def test_override_values_are_json_and_a_broken_list_is_refused():
             parse_overrides([bad])
     with pytest.raises(UsageError, match="key=value"):
         parse_overrides(["rewards.w_cp"])
-
-
-def test_four_learning_epochs_by_default_five_for_the_lineage_and_runs_saved_before():
-    from dataclasses import asdict
-
-    from hybrid_recovery.training.config import TrainConfig, runner_dict, train_config_from_dict
-    from hybrid_recovery.training.variants import variant_train_config
-
-    assert TrainConfig().ppo.num_learning_epochs == 4
-    assert runner_dict(TrainConfig())["algorithm"]["num_learning_epochs"] == 4
-    for variant in ("recovery", "recovery_rises"):  # the lineage's recipes, as trained
-        assert variant_train_config(variant).ppo.num_learning_epochs == 5
-    assert variant_train_config("full").ppo.num_learning_epochs == 4
-    saved = asdict(TrainConfig())
-    del saved["ppo"]["num_learning_epochs"]  # a run saved before the field had a say
-    assert train_config_from_dict(saved).ppo.num_learning_epochs == 5
-    saved["ppo"]["num_learning_epochs"] = 4
-    assert train_config_from_dict(saved).ppo.num_learning_epochs == 4
-

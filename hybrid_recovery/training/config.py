@@ -21,11 +21,10 @@ class PPOConfig:
     desired_kl: float = 0.01
     entropy_coef: float = 0.005
     value_loss_coef: float = 1.0
-    num_learning_epochs: int = 4
-    """E passes over the rollout per update. The paper does not state it (rsl-rl's default
-    is 5); 4 learned as much per env step from scratch (three seeds, equal env steps,
-    ``research/ab_update.py``) for a fifth less update time (training/README.md "Training
-    throughput"). The lineage's variants keep the 5 they were trained with."""
+    num_learning_epochs: int = 5
+    """E passes over the rollout per update (rsl-rl's default; the paper does not state
+    it). 4 cut the update by a fifth and learned as much per env step on ``recovery``, but
+    less reward on ``full`` (training/README.md "Training throughput"): not the default."""
     num_mini_batches: int = 4
     max_grad_norm: float = 1.0
     use_clipped_value_loss: bool = True
@@ -128,7 +127,6 @@ def train_config_from_dict(data: dict[str, Any]) -> TrainConfig:
             raise KeyError(f"{where} has unknown keys {unknown} (saved by another version "
                            f"of hybrid_recovery?)")
     ppo = PPOConfig(**{"mixed_precision": False,  # saved before bf16 existed: float32
-                       "num_learning_epochs": 5,  # saved before 4 was the default
                        **data.pop("ppo", {})})
     teacher = TeacherConfig(**{k: v for k, v in data.pop("teacher", {}).items()
                                if k not in REMOVED_TEACHER})

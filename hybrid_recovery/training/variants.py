@@ -57,15 +57,14 @@ VARIANTS: dict[str, dict[str, Any]] = {
 
 VARIANT_TRAIN: dict[str, dict[str, Any]] = {
     "recovery": {"init_std": 0.5, "max_std": 0.6, "save_interval": 25,
-                 "ppo.mixed_precision": False, "ppo.num_learning_epochs": 5},
+                 "ppo.mixed_precision": False},
     "recovery_rises": {"init_std": 0.5, "max_std": 0.6, "save_interval": 25,
-                       "ppo.num_learning_epochs": 5,
                        "teacher.learning_rate": 1e-4, "teacher.anneal_iterations": 300},
 }
 """Variant name → TrainConfig settings other than the defaults (``ppo.<field>`` for PPO,
 ``teacher.<field>`` for the teacher);
 absent: the defaults. ``recovery`` keeps the float32 update its iterations were trained
-with, both lineage variants the 5 learning epochs."""
+with."""
 
 
 def variant_overrides(name: str) -> dict[str, Any]:
