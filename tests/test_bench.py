@@ -155,8 +155,9 @@ def test_train_bench_splits_the_update(train_bench):
     assert all(parts[name] >= 0.0 for name in UPDATE_PARTS)  # rounded to 1 ms
     assert parts["actor_backward"] > 0.0 and parts["critic_backward"] > 0.0
     assert parts["symmetry_augmentation"] == 0.0  # symmetry is off
+    # the parts and rest add up to the update; each of the ten figures is rounded to 1 ms
     assert sum(parts.values()) == pytest.approx(train_bench["s_per_iteration"]["ppo_update"],
-                                                abs=2e-3)
+                                                abs=10 * 0.5e-3)
 
 
 def test_update_parts_leave_the_learner_as_it_was():
