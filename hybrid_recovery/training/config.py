@@ -24,7 +24,8 @@ class PPOConfig:
     num_learning_epochs: int = 5
     """E passes over the rollout per update (rsl-rl's default; the paper does not state
     it). 4 cut the update by a fifth and learned as much per env step on ``recovery``, but
-    less reward on ``full`` (training/README.md "Training throughput"): not the default."""
+    less reward on ``full`` in two of three seeds (training/README.md "Training
+    throughput"): not the default."""
     num_mini_batches: int = 4
     max_grad_norm: float = 1.0
     use_clipped_value_loss: bool = True
