@@ -36,10 +36,10 @@ def time_update_parts(alg, repeat: int = 3) -> dict[str, float]:
     Each part is timed on the first mini-batch of the filled rollout storage, best of
     ``repeat`` runs, and scaled by the update's ``num_learning_epochs × num_mini_batches``
     mini-batch steps; the normalisers and the mini-batch generator (one whole pass over
-    the epochs) are timed per update. The forward passes and losses run under the
-    update's autocast setting (bf16 when ``alg.use_mixed_precision``), as in rsl-rl's
-    ``PPO.update``; the actor's includes the log-probability, entropy and KL, the
-    critic's the clipped value loss. The augmentation counts only when the symmetry
+    the epochs) are timed per update. The losses are the update's own
+    (:class:`~hybrid_recovery.training.split_update.SplitUpdatePPO`'s ``actor_loss`` and
+    ``value_loss``, in its precision); the actor's includes the log-probability, entropy
+    and KL, the critic's the clipped value loss. The augmentation counts only when the symmetry
     extension is on, whose mirrored batch the other parts then see. Weights, optimiser
     state and normalisers are restored afterwards, so the storage and the networks are
     as they were.
@@ -84,41 +84,21 @@ def ratio_noise(alg) -> float:
     with the clip range ε = 0.2.
     """
     batch = next(alg.storage.mini_batch_generator(alg.num_mini_batches, 1))
-    with torch.no_grad(), _autocast(alg):
+    with torch.no_grad(), alg.autocast():
         alg.actor(batch.observations, stochastic_output=True)
         log_prob = alg.actor.get_output_log_prob(batch.actions).float()
     ratio = torch.exp(log_prob - batch.old_actions_log_prob.squeeze())
     return float((ratio - 1.0).abs().mean())
 
 
-def _autocast(alg):
-    return torch.autocast(torch.device(alg.device).type, dtype=torch.bfloat16,
-                          enabled=alg.use_mixed_precision)
-
-
 def _actor_loss(alg, batch, size: int) -> torch.Tensor:
-    """rsl-rl's clipped surrogate minus the entropy bonus, and its KL estimate."""
-    with _autocast(alg):
-        alg.actor(batch.observations, stochastic_output=True)
-        log_prob = alg.actor.get_output_log_prob(batch.actions)
-        params = tuple(p[:size] for p in alg.actor.output_distribution_params)
-        entropy = alg.actor.output_entropy[:size]
-        with torch.no_grad():
-            alg.actor.get_kl_divergence(batch.old_distribution_params, params).mean()
-        ratio = torch.exp(log_prob - batch.old_actions_log_prob.squeeze())
-        advantages = batch.advantages.squeeze()
-        clipped = ratio.clamp(1.0 - alg.clip_param, 1.0 + alg.clip_param)
-        surrogate = torch.max(-advantages * ratio, -advantages * clipped).mean()
-        return surrogate - alg.entropy_coef * entropy.mean()
+    """The update's actor loss, with its KL estimate but no step-size adaptation."""
+    return alg.actor_loss(batch, size, adapt_step_size=False)[0]
 
 
 def _critic_loss(alg, batch) -> torch.Tensor:
-    """rsl-rl's clipped value loss."""
-    with _autocast(alg):
-        values = alg.critic(batch.observations)
-        clipped = batch.values + (values - batch.values).clamp(-alg.clip_param, alg.clip_param)
-        return torch.max((values - batch.returns).pow(2),
-                         (clipped - batch.returns).pow(2)).mean() * alg.value_loss_coef
+    """The update's weighted value loss c_V · L_V."""
+    return alg.value_loss(batch) * alg.value_loss_coef
 
 
 def _forward_backward(alg, loss_fn: Callable[[], torch.Tensor],

@@ -76,57 +76,71 @@ class SplitUpdatePPO(GatheredOncePPO):
         self.storage.clear()
         return losses
 
-    def _autocast(self) -> torch.autocast:
+    def autocast(self) -> torch.autocast:
         """The update's precision; autocast is thread-local, so each half enters its own."""
         return torch.autocast(torch.device(self.device).type, dtype=torch.bfloat16,
                               enabled=self.use_mixed_precision)
 
-    def _critic_half(self, batch) -> float:
-        """c_V · L_V backward (rsl-rl's clipped value loss); returns L_V."""
-        with self._autocast():
+    def value_loss(self, batch) -> torch.Tensor:
+        """L_V, rsl-rl's (clipped) value loss of the critic on ``batch``, in the update's
+        precision."""
+        with self.autocast():
             values = self.critic(batch.observations, masks=batch.masks,
                                  hidden_state=batch.hidden_states[1])
-            if self.use_clipped_value_loss:
-                clipped = batch.values + (values - batch.values).clamp(-self.clip_param,
-                                                                       self.clip_param)
-                value_loss = torch.max((values - batch.returns).pow(2),
-                                       (clipped - batch.returns).pow(2)).mean()
-            else:
-                value_loss = (batch.returns - values).pow(2).mean()
-        (self.value_loss_coef * value_loss).backward()
-        return value_loss.item()
+            if not self.use_clipped_value_loss:
+                return (batch.returns - values).pow(2).mean()
+            clipped = batch.values + (values - batch.values).clamp(-self.clip_param,
+                                                                   self.clip_param)
+            return torch.max((values - batch.returns).pow(2),
+                             (clipped - batch.returns).pow(2)).mean()
 
-    def _actor_half(self, batch, size: int) -> dict[str, float]:
-        """(L_clip − c_H · H [+ mirror loss]) backward after the KL step-size adaptation;
-        returns the surrogate, entropy (and symmetry) losses."""
-        with self._autocast():
+    def actor_loss(self, batch, size: int, adapt_step_size: bool = True
+                   ) -> tuple[torch.Tensor, dict[str, torch.Tensor]]:
+        """L_clip − c_H · H [+ the mirror loss] of the actor on ``batch`` (its first ``size``
+        samples the rollout's, the rest mirrored), in the update's precision, and its
+        terms; the KL to the rollout's policy adapts the step size first (with
+        ``adapt_step_size``; else it is only computed)."""
+        with self.autocast():
             self.actor(batch.observations, masks=batch.masks,
                        hidden_state=batch.hidden_states[0], stochastic_output=True)
             log_prob = self.actor.get_output_log_prob(batch.actions)
             params = tuple(p[:size] for p in self.actor.output_distribution_params)
             entropy = self.actor.output_entropy[:size]
             if self.desired_kl is not None and self.schedule == "adaptive":
-                self._adapt_learning_rate(batch, params)
+                with torch.inference_mode():
+                    kl = torch.mean(self.actor.get_kl_divergence(
+                        batch.old_distribution_params, params))
+                if adapt_step_size:
+                    self._adapt_learning_rate(kl)
             ratio = torch.exp(log_prob - torch.squeeze(batch.old_actions_log_prob))
             advantages = torch.squeeze(batch.advantages)
             clipped = torch.clamp(ratio, 1.0 - self.clip_param, 1.0 + self.clip_param)
             surrogate = torch.max(-advantages * ratio, -advantages * clipped).mean()
-            loss = surrogate - self.entropy_coef * entropy.mean()
-            losses = {"surrogate": surrogate.item(), "entropy": entropy.mean().item()}
+            terms = {"surrogate": surrogate, "entropy": entropy.mean()}
+            loss = surrogate - self.entropy_coef * terms["entropy"]
             if self.symmetry:
-                mirror = self.symmetry.compute_loss(self.actor, batch, size)
+                terms["symmetry"] = self.symmetry.compute_loss(self.actor, batch, size)
                 if self.symmetry.use_mirror_loss:
-                    loss = loss + self.symmetry.mirror_loss_coeff * mirror
-                losses["symmetry"] = mirror.item()
-        loss.backward()
-        return losses
+                    loss = loss + self.symmetry.mirror_loss_coeff * terms["symmetry"]
+        return loss, terms
 
-    def _adapt_learning_rate(self, batch, params: tuple[torch.Tensor, ...]) -> None:
+    def _critic_half(self, batch) -> float:
+        """c_V · L_V backward; returns L_V."""
+        value_loss = self.value_loss(batch)
+        (self.value_loss_coef * value_loss).backward()
+        return value_loss.item()
+
+    def _actor_half(self, batch, size: int) -> dict[str, float]:
+        """The actor's loss backward; returns its terms."""
+        loss, terms = self.actor_loss(batch, size)
+        loss.backward()
+        return {name: term.item() for name, term in terms.items()}
+
+    def _adapt_learning_rate(self, kl: torch.Tensor) -> None:
         """rsl-rl's adaptive schedule: the step size ÷ 1.5 when the mean KL to the rollout's
         policy exceeds 2 · KL*, × 1.5 below KL* / 2 (within [1e-5, 1e-2]); under
         ``torchrun`` the mean over GPUs, decided on rank 0."""
         with torch.inference_mode():
-            kl = torch.mean(self.actor.get_kl_divergence(batch.old_distribution_params, params))
             if self.is_multi_gpu:
                 torch.distributed.all_reduce(kl, op=torch.distributed.ReduceOp.SUM)
                 kl /= self.gpu_world_size
