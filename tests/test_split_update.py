@@ -10,6 +10,7 @@ from rsl_rl.storage import RolloutStorage
 from tensordict import TensorDict
 
 from hybrid_recovery.training.split_update import SplitUpdatePPO
+from hybrid_recovery.training.table_elu import TableELU
 
 ENVS, STEPS, ACTIONS = 16, 6, 3
 GROUPS = {"actor": ["policy"], "critic": ["critic"]}
@@ -68,11 +69,15 @@ def _weights(alg: PPO) -> list[torch.Tensor]:
 def test_the_same_update_as_rsl_rl(settings):
     theirs, ours = _algorithm(PPO, **settings), _algorithm(SplitUpdatePPO, **settings)
     assert all(torch.equal(a, b) for a, b in zip(_weights(theirs), _weights(ours), strict=True))
+    for net in (ours.actor, ours.critic):  # theirs keeps nn.ELU
+        assert sum(isinstance(m, TableELU) for m in net.mlp) == 2
+    threads = torch.get_num_threads()
     for _ in range(2):  # the second update (same rollout) starts from the first's Adam state
         torch.manual_seed(7)
         their_losses = theirs.update()
         torch.manual_seed(7)
         our_losses = ours.update()
+        assert torch.get_num_threads() == threads  # each half ran on half, then restored
         assert our_losses == their_losses
         assert ours.learning_rate == theirs.learning_rate
         for a, b in zip(_weights(theirs), _weights(ours), strict=True):

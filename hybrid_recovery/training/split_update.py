@@ -15,20 +15,25 @@ does not read the learning rate, which the actor's half adapts before the step).
 
 Why: on 2 CPU cores the update leaves about a third of a core idle (Python dispatch and
 small single-threaded operations between the matrix products); the critic's work fills
-it (``hybrid-recovery bench train``).
+it (``hybrid-recovery bench train``). Each half runs on half of torch's intra-op threads
+(one each on 2 cores): two teams of two on two cores lost 5 % of the update to sharing.
 
-Recurrent networks and RND keep rsl-rl's update.
+Its networks' ELUs take a table for bf16 inputs (:mod:`~hybrid_recovery.training.table_elu`:
+the same bits, a fifth of the time). Recurrent networks and RND keep rsl-rl's update.
 """
 
 from __future__ import annotations
 
 from collections import defaultdict
+from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
+from contextlib import contextmanager
 
 import torch
 from torch import nn
 
 from hybrid_recovery.training.minibatches import GatheredOncePPO
+from hybrid_recovery.training.table_elu import use_table_elu
 
 
 class SplitUpdatePPO(GatheredOncePPO):
@@ -37,13 +42,21 @@ class SplitUpdatePPO(GatheredOncePPO):
 
     learning_rate: float  # rsl-rl's, adapted by the KL schedule
 
+    def __init__(self, actor, critic, *args, **kwargs) -> None:
+        super().__init__(actor, critic, *args, **kwargs)
+        use_table_elu(self.actor)
+        use_table_elu(self.critic)
+
     def update(self) -> dict[str, float]:
         if self.rnd or self.actor.is_recurrent or self.critic.is_recurrent:
             return super().update()
         sums: dict[str, float] = defaultdict(float)
         generator = self.storage.mini_batch_generator(self.num_mini_batches,
                                                       self.num_learning_epochs)
-        with ThreadPoolExecutor(1, thread_name_prefix="critic-update") as pool:
+        threads = torch.get_num_threads()
+        half = max(1, threads // 2)  # each half's intra-op threads: the cores split, not shared
+        with ThreadPoolExecutor(1, thread_name_prefix="critic-update",
+                                initializer=torch.set_num_threads, initargs=(half,)) as pool:
             for batch in generator:
                 size = batch.observations.batch_size[0]
                 if self.normalize_advantage_per_mini_batch:
@@ -53,11 +66,12 @@ class SplitUpdatePPO(GatheredOncePPO):
                 if self.symmetry:
                     self.symmetry.augment_batch(batch, size)
                 self.optimizer.zero_grad()
-                critic = pool.submit(self._critic_half, batch)
-                try:
-                    actor_losses = self._actor_half(batch, size)
-                finally:
-                    value_loss = critic.result()  # joins (and re-raises) before any step
+                with _intra_op_threads(half, restore=threads):
+                    critic = pool.submit(self._critic_half, batch)
+                    try:
+                        actor_losses = self._actor_half(batch, size)
+                    finally:
+                        value_loss = critic.result()  # joins (and re-raises) before any step
                 if self.is_multi_gpu:
                     self.reduce_parameters()
                 nn.utils.clip_grad_norm_(self.actor.parameters(), self.max_grad_norm)
@@ -157,3 +171,14 @@ class SplitUpdatePPO(GatheredOncePPO):
             self.learning_rate = rate
             for group in self.optimizer.param_groups:
                 group["lr"] = rate
+
+
+@contextmanager
+def _intra_op_threads(threads: int, restore: int) -> Iterator[None]:
+    """torch's intra-op threads of the calling thread set to ``threads``, then ``restore``
+    (also the count that threads started later begin with)."""
+    torch.set_num_threads(threads)
+    try:
+        yield
+    finally:
+        torch.set_num_threads(restore)
