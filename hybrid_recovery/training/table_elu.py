@@ -33,16 +33,23 @@ def _table() -> np.ndarray:
     return F.elu(patterns).view(torch.int16).numpy().view(np.uint16).copy()
 
 
+def _gather_loop(x: np.ndarray, out: np.ndarray, table: np.ndarray) -> None:
+    for i in range(x.size):
+        out[i] = table[x[i]]
+
+
 @functools.cache
 def _gather():
-    """The compiled gather ``out[i] = table[x[i]]`` (compiled on first use, ~1 s)."""
+    """The compiled gather ``out[i] = table[x[i]]``: compiled on first use (~1 s), cached
+    on disk where numba finds a writable place, else compiled in every process."""
     import numba
 
-    @numba.njit(nogil=True, cache=True)
-    def gather(x: np.ndarray, out: np.ndarray, table: np.ndarray) -> None:
-        for i in range(x.size):
-            out[i] = table[x[i]]
-
+    probe = np.zeros(1, dtype=np.uint16)
+    try:
+        gather = numba.njit(nogil=True, cache=True)(_gather_loop)
+        gather(probe, probe.copy(), _table())
+    except RuntimeError:  # "cannot cache function ...: no locator available"
+        gather = numba.njit(nogil=True)(_gather_loop)
     return gather
 
 
