@@ -198,3 +198,13 @@ def test_cop_errors() -> None:
         ValueError, match=r"^zero_moment_point: the contacts carry no normal force \(f_z <= 0\)$"
     ):
         zero_moment_point(np.array([1.0, 0.0, 0.0]), np.zeros(3))
+
+
+def test_batched_rejects_shapes_that_do_not_fit() -> None:
+    contacts, mask = np.zeros((3, 4, 3)), np.ones((3, 4), dtype=bool)
+    for point, c, m in ((np.zeros((2, 2)), contacts, mask), (np.zeros((3, 3)), contacts, mask),
+                        (np.zeros((3, 2)), contacts[:, :3], mask),
+                        (np.zeros((3, 2)), np.zeros((3, 4, 4)), mask),
+                        (np.zeros((3, 2)), contacts, mask[0])):
+        with pytest.raises(ValueError, match="signed_distance_batched needs"):
+            signed_distance_batched(point, c, m)

@@ -11,7 +11,11 @@ edge, a knee point), while the monotone chain returns them as a point or a segme
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
+
+from hybrid_recovery.dynamics.compiled import compiled
 
 _EPS = 1e-12
 
@@ -104,13 +108,12 @@ def signed_distance_batched(
 ) -> np.ndarray:
     """Signed distance of each env's point to the hull C of its active contacts.
 
-    Exact, and vectorised over envs: a gift-wrapping (Jarvis) march runs in all envs at
-    once, at most M steps; each step moves to the point making the smallest
-    counter-clockwise turn from the last edge (largest cosine, all points lying left of
-    or on the hull edges). Then, as in :func:`signed_distance`, d = max over edges of
-    n·(p − a) ≤ 0 inside and d = min over edges of dist(p, [a, b]) outside.
-    Inactive points are replaced by the start vertex, which leaves the hull unchanged.
-    One point or collinear points have no inside (zero area) and give d ≥ 0.
+    Exact, per env in one compiled loop (:func:`_signed_distances`): a gift-wrapping
+    (Jarvis) march from the lowest of the leftmost active points, each step to the point
+    making the smallest counter-clockwise turn from the last edge (largest cosine; the
+    first such point on ties). Then, as in :func:`signed_distance`, d = max over edges of
+    n·(p − a) ≤ 0 inside and d = min over edges of dist(p, [a, b]) outside. One point or
+    collinear points have no inside (zero area) and give d ≥ 0.
 
     Args:
         point: Query points p, shape (N, 2) [m].
@@ -122,59 +125,82 @@ def signed_distance_batched(
 
     Returns:
         d, shape (N,) [m]: negative inside, positive outside.
+
+    Raises:
+        ValueError: shapes that do not fit together.
     """
-    p = np.asarray(point, dtype=float)
-    c = np.asarray(contact_points, dtype=float)
-    mask = np.asarray(mask, dtype=bool)
-    n_env, m = mask.shape
-    width = int(mask.sum(-1).max()) if n_env else 0
-    if m == 0 or width == 0:
-        return np.full(n_env, float(no_contact))
-    if width < m:  # active points first, then only as many columns as the most active env
-        order = np.argsort(~mask, axis=-1, kind="stable")[:, :width]
-        c = np.take_along_axis(c[..., :2], order[..., None], 1)
-        mask, m = np.take_along_axis(mask, order, 1), width
-    # Start at the lowest of the leftmost active points, a hull vertex.
-    x = np.where(mask, c[..., 0], np.inf)
-    y = np.where(mask & (x == x.min(-1, keepdims=True)), c[..., 1], np.inf)
-    first = np.argmin(y, -1)[:, None]
-    x0, y0 = np.take_along_axis(c[..., 0], first, -1), np.take_along_axis(c[..., 1], first, -1)
-    cx, cy = np.where(mask, c[..., 0], x0), np.where(mask, c[..., 1], y0)
+    p = np.ascontiguousarray(point, dtype=float)
+    c = np.ascontiguousarray(contact_points, dtype=float)  # z, if given, is not read
+    mask = np.ascontiguousarray(mask, dtype=bool)
+    n = mask.shape[0] if mask.ndim == 2 else -1
+    if p.shape != (n, 2) or c.shape[:2] != mask.shape or c.ndim != 3 or c.shape[2] not in (2, 3):
+        raise ValueError(f"signed_distance_batched needs point (N, 2), contact_points (N, M, 2|3) "
+                         f"and mask (N, M); got {p.shape}, {c.shape}, {mask.shape}")
+    out = np.empty(mask.shape[0])
+    _kernel()(p, c, mask, float(no_contact), out)
+    return out
 
-    path_x, path_y = [x0], [y0]
-    ux, uy = np.zeros((n_env, 1)), -np.ones((n_env, 1))  # last edge direction
-    closed = np.zeros((n_env, 1), dtype=bool)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        for _ in range(m):
-            dx, dy = cx - path_x[-1], cy - path_y[-1]
-            length = np.hypot(dx, dy)
-            cos = np.where(length > _EPS, (dx * ux + dy * uy) / length, -2.0)
-            k = np.argmax(cos, -1)[:, None]
-            nx, ny = np.take_along_axis(cx, k, -1), np.take_along_axis(cy, k, -1)
-            sx, sy = nx - path_x[-1], ny - path_y[-1]
+
+def _signed_distances(p: np.ndarray, c: np.ndarray, mask: np.ndarray, no_contact: float,
+                      out: np.ndarray) -> None:
+    """The loop of :func:`signed_distance_batched`: p (N, 2), c (N, M, 2 or 3), mask
+    (N, M); writes d into ``out`` (N,)."""
+    n, m = mask.shape
+    px, py = np.empty(m), np.empty(m)
+    vx, vy = np.empty(m + 1), np.empty(m + 1)  # hull path, closed
+    for e in range(n):
+        k = 0
+        for j in range(m):
+            if mask[e, j]:
+                px[k], py[k] = c[e, j, 0], c[e, j, 1]
+                k += 1
+        if k == 0:
+            out[e] = no_contact
+            continue
+        first = 0
+        for j in range(1, k):
+            if px[j] < px[first] or (px[j] == px[first] and py[j] < py[first]):
+                first = j
+        x0, y0 = px[first], py[first]
+        vx[0], vy[0] = x0, y0
+        h, ux, uy = 1, 0.0, -1.0  # path length, last edge direction
+        for _ in range(k):
+            best, pick = -np.inf, 0
+            for j in range(k):
+                dx, dy = px[j] - vx[h - 1], py[j] - vy[h - 1]
+                length = np.hypot(dx, dy)
+                cos = (dx * ux + dy * uy) / length if length > _EPS else -2.0
+                if cos > best:
+                    best, pick = cos, j
+            sx, sy = px[pick] - vx[h - 1], py[pick] - vy[h - 1]
             step = np.hypot(sx, sy)
-            ux, uy = np.where(step > _EPS, sx / step, ux), np.where(step > _EPS, sy / step, uy)
-            nx, ny = np.where(closed, x0, nx), np.where(closed, y0, ny)
-            closed |= (nx == x0) & (ny == y0)
-            path_x.append(nx)
-            path_y.append(ny)
-            if closed.all():
+            if step > _EPS:
+                ux, uy = sx / step, sy / step
+            vx[h], vy[h] = px[pick], py[pick]
+            h += 1
+            if px[pick] == x0 and py[pick] == y0:
                 break
+        outside, inside, area = np.inf, -np.inf, 0.0
+        for i in range(h - 1):
+            ax, ay, bx, by = vx[i], vy[i], vx[i + 1], vy[i + 1]
+            ex, ey = bx - ax, by - ay
+            qx, qy = p[e, 0] - ax, p[e, 1] - ay
+            length2 = ex * ex + ey * ey
+            t = min(max((qx * ex + qy * ey) / max(length2, _EPS**2), 0.0), 1.0)
+            outside = min(outside, np.hypot(qx - t * ex, qy - t * ey))
+            length = np.sqrt(length2)
+            if length > _EPS:  # n·(p − a), n outward
+                inside = max(inside, (ey * qx - ex * qy) / length)
+            area += (ax - x0) * (by - y0) - (ay - y0) * (bx - x0)  # twice the swept area
+        out[e] = inside if area > _EPS and inside <= 0.0 else outside
 
-    vx, vy = np.concatenate(path_x, -1), np.concatenate(path_y, -1)  # (N, H + 1)
-    ax, ay, bx, by = vx[:, :-1], vy[:, :-1], vx[:, 1:], vy[:, 1:]  # edges a → b
-    ex, ey = bx - ax, by - ay
-    qx, qy = p[:, 0:1] - ax, p[:, 1:2] - ay
-    length2 = ex * ex + ey * ey
-    t = np.clip((qx * ex + qy * ey) / np.maximum(length2, _EPS**2), 0.0, 1.0)
-    outside = np.hypot(qx - t * ex, qy - t * ey).min(-1)
-    length = np.sqrt(length2)
-    edge_gap = (ey * qx - ex * qy) / np.maximum(length, _EPS)  # n·(p − a), n outward
-    inside = np.where(length > _EPS, edge_gap, -np.inf).max(-1)
-    # Twice the area swept from the start vertex: zero for a point or a segment.
-    area = ((ax - x0) * (by - y0) - (ay - y0) * (bx - x0)).sum(-1)
-    d = np.where((area > _EPS) & (inside <= 0.0), inside, outside)
-    return np.where(mask.any(-1), d, no_contact)
+
+@functools.cache
+def _kernel():
+    """:func:`_signed_distances`, compiled."""
+    probe = np.zeros((1, 1, 2))
+    return compiled(_signed_distances, probe[:, 0], probe, np.ones((1, 1), dtype=bool), 1.0,
+                    np.empty(1))
 
 
 def zero_moment_point(force: np.ndarray, torque: np.ndarray, height: float = 0.0) -> np.ndarray:

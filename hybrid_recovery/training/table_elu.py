@@ -22,6 +22,8 @@ import torch
 from torch import nn
 from torch.nn import functional as F
 
+from hybrid_recovery.dynamics.compiled import compiled
+
 BITS = 1 << 16
 """Number of bfloat16 bit patterns, the table's length."""
 
@@ -40,17 +42,9 @@ def _gather_loop(x: np.ndarray, out: np.ndarray, table: np.ndarray) -> None:
 
 @functools.cache
 def _gather():
-    """The compiled gather ``out[i] = table[x[i]]``: compiled on first use (~1 s), cached
-    on disk where numba finds a writable place, else compiled in every process."""
-    import numba
-
+    """The compiled gather ``out[i] = table[x[i]]``."""
     probe = np.zeros(1, dtype=np.uint16)
-    try:
-        gather = numba.njit(nogil=True, cache=True)(_gather_loop)
-        gather(probe, probe.copy(), _table())
-    except RuntimeError:  # "cannot cache function ...: no locator available"
-        gather = numba.njit(nogil=True)(_gather_loop)
-    return gather
+    return compiled(_gather_loop, probe, probe.copy(), _table())
 
 
 def _bits(t: torch.Tensor) -> np.ndarray:
