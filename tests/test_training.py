@@ -208,6 +208,53 @@ def test_sigkill_then_resume_loses_at_most_one_interval(tmp_path):
     assert (after["stage"], after["level"]) >= (state["stage"], state["level"])
 
 
+def test_sigterm_stops_after_the_iteration_under_way_saved_and_resumable(tmp_path):
+    run = tmp_path / "stopped"
+    cmd = [sys.executable, "-m", "hybrid_recovery.cli.main", "train", "--num-envs", "8",
+           "--iterations", "1000", "--save-interval", "1000", "--threads", "1",
+           "--run-dir", str(run), "--set"] + [f"{k}={v}" for k, v in FAST.items()]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            start_new_session=True)
+    try:
+        assert proc.stdout is not None
+        for line in proc.stdout:  # rsl-rl's report of each iteration
+            if "Learning iteration 3/" in line:
+                break
+        else:
+            pytest.fail(f"training ended early: {proc.stderr.read()[-2000:]}")
+        assert load_checkpoint(run / "latest.pt")["iter"] == 0  # the only periodic save
+        proc.send_signal(signal.SIGTERM)
+        proc.stdout.read()
+        stderr = proc.stderr.read()
+        assert proc.wait(timeout=120) == 130
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    saved = load_checkpoint(run / "latest.pt")
+    assert saved["iter"] >= 3  # the iteration under way when the signal came, not 0
+    assert f"SIGTERM: stopped after iteration {saved['iter']}, saved; continue with --resume" \
+        in stderr
+    assert (run / f"model_{saved['iter']}.pt").is_file()
+    resumed = train(run, _cfg(iterations=saved["iter"] + 2), resume=True)
+    assert resumed.current_learning_iteration == saved["iter"] + 1
+
+
+def test_a_second_signal_stops_at_once_and_handlers_are_restored():
+    from hybrid_recovery.training.graceful_stop import StopRequest, stop_on_signals
+
+    before = signal.getsignal(signal.SIGTERM)
+    request = StopRequest()
+    with stop_on_signals(request):
+        os.kill(os.getpid(), signal.SIGTERM)
+        time.sleep(0.05)  # the handler runs between bytecodes of the main thread
+        assert request.signal == signal.SIGTERM
+        with pytest.raises(KeyboardInterrupt, match="SIGTERM again: stopped at once"):
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(1.0)
+    assert signal.getsignal(signal.SIGTERM) is before
+
+
 def test_resume_uses_the_runs_saved_settings(tmp_path):
     run = tmp_path / "run"
     train(run, _cfg(init_std=0.5, env_overrides={**FAST, "assist.fraction": 0.3}))

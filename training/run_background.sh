@@ -3,6 +3,7 @@
 #   training/run_background.sh [VARIANT] [RUN_DIR] [extra train options...]
 # Without arguments it trains the shipped policy's recipe (--variant recovery) in
 # runs/recovery. Progress: tail -f RUN_DIR.log ; curves: tensorboard --logdir RUN_DIR
+# Stop: kill PID (the iteration under way finishes and is saved; run this again to resume).
 set -euo pipefail
 variant=${1:-recovery}
 run_dir=${2:-runs/$variant}
@@ -24,4 +25,4 @@ if ! kill -0 "$pid" 2>/dev/null; then
   tail -n 20 "$run_dir.log" >&2
   exit 1
 fi
-echo "training $variant in $run_dir (pid $pid, log $run_dir.log)"
+echo "training $variant in $run_dir (pid $pid, log $run_dir.log; stop, saved: kill $pid)"

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import os
 import subprocess
 import time
 from collections.abc import Collection
@@ -34,13 +35,16 @@ from hybrid_recovery.training.config import (
     train_config_from_dict,
 )
 from hybrid_recovery.training.distributed import Rank, process_rank
+from hybrid_recovery.training.graceful_stop import StopRequest, TrainingStopped, stop_on_signals
 from hybrid_recovery.training.record import hardware
 from hybrid_recovery.training.teacher import Teacher, TeacherPPO, make_teacher
 from hybrid_recovery.training.variants import variant_overrides
 
 
 class RecoveryRunner(OnPolicyRunner):
-    """OnPolicyRunner whose checkpoints are atomic and carry the env's curriculum state."""
+    """OnPolicyRunner whose checkpoints are atomic and carry the env's curriculum state, and
+    which stops, saved, at the end of an iteration once :attr:`stop` is asked
+    (:mod:`~hybrid_recovery.training.graceful_stop`)."""
 
     env: RecoveryEnv
 
@@ -51,6 +55,23 @@ class RecoveryRunner(OnPolicyRunner):
         self.compute_s: float | None = 0.0  # None: a resumed run whose earlier time is unknown
         self.segments = [{"iteration": 0, "hardware": hardware()}]
         self._clock = time.time()
+        self.stop = StopRequest()
+        log = self.logger.log  # called by learn() at the end of every iteration
+
+        def log_then_stop(**iteration) -> None:
+            log(**iteration)
+            if self.stop.asked:
+                self._stop_saved(int(iteration["it"]))
+
+        self.logger.log = log_then_stop  # type: ignore[method-assign]
+
+    def _stop_saved(self, it: int) -> None:
+        """Saves iteration ``it`` (on the rank that writes) and ends the run."""
+        assert self.stop.signal is not None
+        if self.logger.writer is not None:
+            self.save(os.path.join(self.logger.log_dir, f"model_{it}.pt"))
+        raise TrainingStopped(f"{self.stop.signal.name}: stopped after iteration {it}, "
+                              f"saved; continue with --resume")
 
     @property
     def teacher(self) -> Teacher | None:
@@ -199,6 +220,8 @@ def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
         FileNotFoundError: resuming a directory without a checkpoint.
         ValueError: ``amend`` without ``resume``, ``resume`` with ``force``, no intact
             checkpoint, a damaged ``config.json`` (named), or a bad setting.
+        TrainingStopped: a SIGINT or SIGTERM (the main thread's), after the iteration under
+            way was finished and saved.
     """
     run_dir = Path(run_dir)
     check_backend(cfg.backend, cfg.device)
@@ -259,5 +282,6 @@ def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
               f"{runner.current_learning_iteration}, curriculum stage "
               f"{env.curriculum.stage} level {env.curriculum.level:.2f}", flush=True)
     if cfg.iterations > runner.current_learning_iteration:
-        runner.learn(cfg.iterations - runner.current_learning_iteration)
+        with stop_on_signals(runner.stop):
+            runner.learn(cfg.iterations - runner.current_learning_iteration)
     return runner
