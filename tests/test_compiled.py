@@ -15,7 +15,7 @@ def _twice(x: np.ndarray, out: np.ndarray) -> None:
 
 def test_a_loop_compiles_and_runs():
     x, out = np.arange(5.0), np.empty(5)
-    compiled(_twice, x, out)(x, out)
+    compiled(_twice)(x, out)
     np.testing.assert_array_equal(out, 2.0 * x)
 
 
@@ -31,6 +31,6 @@ def test_without_a_writable_cache_it_compiles_in_memory(monkeypatch):
 
     monkeypatch.setattr(numba, "njit", njit)
     x, out = np.arange(3.0), np.empty(3)
-    compiled(_twice, x, out)(x, out)
+    compiled(_twice)(x, out)
     assert calls == [True, False]
     np.testing.assert_array_equal(out, 2.0 * x)

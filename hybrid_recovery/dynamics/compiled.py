@@ -2,26 +2,31 @@
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from typing import Any
 
 
-def compiled(loop: Callable[..., Any], *probe: Any) -> Callable[..., Any]:
-    """``loop`` compiled by numba (``nogil``: callers may run it on several threads at
-    once), on first use, with the machine code cached on disk where numba finds a
+def compiled(loop: Callable[..., Any]) -> Callable[..., Any]:
+    """Decorator: ``loop`` compiled by numba on its first call (``nogil``: callers may run
+    it on several threads at once), the machine code cached on disk where numba finds a
     writable place for it, else compiled in every process (~1 s).
 
     Args:
         loop: a function of numpy arrays and scalars that numba's nopython mode compiles.
-        probe: arguments to compile it with now (the types of later calls), so that a
-            failing disk cache is met here.
     """
-    import numba
 
-    try:
-        fn = numba.njit(nogil=True, cache=True)(loop)
-        if probe:
-            fn(*probe)
-    except RuntimeError:  # "cannot cache function ...: no locator available"
-        fn = numba.njit(nogil=True)(loop)
-    return fn
+    @functools.cache
+    def build() -> Callable[..., Any]:
+        import numba
+
+        try:
+            return numba.njit(nogil=True, cache=True)(loop)
+        except RuntimeError:  # "cannot cache function ...: no locator available"
+            return numba.njit(nogil=True)(loop)
+
+    @functools.wraps(loop)
+    def call(*args: Any) -> Any:
+        return build()(*args)
+
+    return call

@@ -11,8 +11,6 @@ edge, a knee point), while the monotone chain returns them as a point or a segme
 
 from __future__ import annotations
 
-import functools
-
 import numpy as np
 
 from hybrid_recovery.dynamics.compiled import compiled
@@ -137,10 +135,11 @@ def signed_distance_batched(
         raise ValueError(f"signed_distance_batched needs point (N, 2), contact_points (N, M, 2|3) "
                          f"and mask (N, M); got {p.shape}, {c.shape}, {mask.shape}")
     out = np.empty(mask.shape[0])
-    _kernel()(p, c, mask, float(no_contact), out)
+    _signed_distances(p, c, mask, float(no_contact), out)
     return out
 
 
+@compiled
 def _signed_distances(p: np.ndarray, c: np.ndarray, mask: np.ndarray, no_contact: float,
                       out: np.ndarray) -> None:
     """The loop of :func:`signed_distance_batched`: p (N, 2), c (N, M, 2 or 3), mask
@@ -193,14 +192,6 @@ def _signed_distances(p: np.ndarray, c: np.ndarray, mask: np.ndarray, no_contact
                 inside = max(inside, (ey * qx - ex * qy) / length)
             area += (ax - x0) * (by - y0) - (ay - y0) * (bx - x0)  # twice the swept area
         out[e] = inside if area > _EPS and inside <= 0.0 else outside
-
-
-@functools.cache
-def _kernel():
-    """:func:`_signed_distances`, compiled."""
-    probe = np.zeros((1, 1, 2))
-    return compiled(_signed_distances, probe[:, 0], probe, np.ones((1, 1), dtype=bool), 1.0,
-                    np.empty(1))
 
 
 def zero_moment_point(force: np.ndarray, torque: np.ndarray, height: float = 0.0) -> np.ndarray:

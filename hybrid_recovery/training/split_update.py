@@ -53,8 +53,7 @@ class SplitUpdatePPO(GatheredOncePPO):
         sums: dict[str, float] = defaultdict(float)
         generator = self.storage.mini_batch_generator(self.num_mini_batches,
                                                       self.num_learning_epochs)
-        threads = torch.get_num_threads()
-        half = max(1, threads // 2)  # each half's intra-op threads: the cores split, not shared
+        half = max(1, torch.get_num_threads() // 2)  # per half: the cores split, not shared
         with ThreadPoolExecutor(1, thread_name_prefix="critic-update",
                                 initializer=torch.set_num_threads, initargs=(half,)) as pool:
             for batch in generator:
@@ -66,7 +65,7 @@ class SplitUpdatePPO(GatheredOncePPO):
                 if self.symmetry:
                     self.symmetry.augment_batch(batch, size)
                 self.optimizer.zero_grad()
-                with _intra_op_threads(half, restore=threads):
+                with _intra_op_threads(half):
                     critic = pool.submit(self._critic_half, batch)
                     try:
                         actor_losses = self._actor_half(batch, size)
@@ -174,11 +173,12 @@ class SplitUpdatePPO(GatheredOncePPO):
 
 
 @contextmanager
-def _intra_op_threads(threads: int, restore: int) -> Iterator[None]:
-    """torch's intra-op threads of the calling thread set to ``threads``, then ``restore``
+def _intra_op_threads(threads: int) -> Iterator[None]:
+    """torch's intra-op threads of the calling thread set to ``threads`` inside, then back
     (also the count that threads started later begin with)."""
+    before = torch.get_num_threads()
     torch.set_num_threads(threads)
     try:
         yield
     finally:
-        torch.set_num_threads(restore)
+        torch.set_num_threads(before)

@@ -35,16 +35,16 @@ def _table() -> np.ndarray:
     return F.elu(patterns).view(torch.int16).numpy().view(np.uint16).copy()
 
 
-def _gather_loop(x: np.ndarray, out: np.ndarray, table: np.ndarray) -> None:
+@compiled
+def _gather(x: np.ndarray, out: np.ndarray, table: np.ndarray) -> None:
+    """``out[i] = table[x[i]]``."""
     for i in range(x.size):
         out[i] = table[x[i]]
 
 
-@functools.cache
-def _gather():
-    """The compiled gather ``out[i] = table[x[i]]``."""
-    probe = np.zeros(1, dtype=np.uint16)
-    return compiled(_gather_loop, probe, probe.copy(), _table())
+def _tabled(x: torch.Tensor) -> bool:
+    """Whether ``x`` takes the table: bf16 on the CPU."""
+    return x.dtype == torch.bfloat16 and x.device.type == "cpu"
 
 
 def _bits(t: torch.Tensor) -> np.ndarray:
@@ -58,11 +58,11 @@ def table_elu(x: torch.Tensor) -> torch.Tensor:
     Args:
         x: any shape; bf16 on the CPU takes the table, anything else ``F.elu``.
     """
-    if x.dtype != torch.bfloat16 or x.device.type != "cpu":
+    if not _tabled(x):
         return F.elu(x)
     x = x.contiguous()
     out = torch.empty_like(x)
-    _gather()(_bits(x), _bits(out), _table())
+    _gather(_bits(x), _bits(out), _table())
     return out
 
 
@@ -85,9 +85,7 @@ class TableELU(nn.Module):
     gradients); parameter-free, so state dicts and exports are unchanged."""
 
     def forward(self, x: torch.Tensor) -> torch.Tensor:
-        if x.dtype != torch.bfloat16 or x.device.type != "cpu":
-            return F.elu(x)
-        return _TableELU.apply(x)
+        return _TableELU.apply(x) if _tabled(x) else F.elu(x)
 
 
 def use_table_elu(model: nn.Module) -> int:
