@@ -13,7 +13,9 @@ Part 1", 3D-LIPM with a finite-sized foot. Symbols:
 from __future__ import annotations
 
 import numpy as np
+from array_api_compat import array_namespace, device
 
+from hybrid_recovery.dynamics.arrays import Array
 from hybrid_recovery.dynamics.support import (
     signed_distance,
     signed_distance_batched,
@@ -30,12 +32,13 @@ def lip_frequency(height: float | np.ndarray, g: float = 9.81) -> float | np.nda
 
 
 def capture_point(
-    com_xy: np.ndarray,
-    com_vel_xy: np.ndarray,
-    height: float | np.ndarray,
+    com_xy: Array,
+    com_vel_xy: Array,
+    height: float | Array,
     g: float = 9.81,
-) -> np.ndarray:
-    """Instantaneous capture point ξ = c + ċ/ω with ω = √(g/h).
+) -> Array:
+    """Instantaneous capture point ξ = c + ċ/ω with ω = √(g/h); numpy arrays (computed in
+    float64) or torch tensors (in their own precision, on their device).
 
     Args:
         com_xy: Horizontal CoM position c, shape (..., 2) [m].
@@ -49,11 +52,14 @@ def capture_point(
     Raises:
         ValueError: When some h ≤ 0.
     """
-    h = np.asarray(height, dtype=float)
-    if np.any(h <= 0.0):
+    xp = array_namespace(com_xy, com_vel_xy, height)
+    dtype = xp.float64 if isinstance(com_xy, np.ndarray) else com_xy.dtype
+    c, v = xp.asarray(com_xy, dtype=dtype), xp.asarray(com_vel_xy, dtype=dtype)
+    h = xp.asarray(height, dtype=dtype, device=device(c))
+    if bool(xp.any(h <= 0.0)):
         raise ValueError("capture_point: height must be > 0")
-    omega = np.sqrt(g / h[..., None])  # ω = √(g/h)
-    return np.asarray(com_xy, dtype=float) + np.asarray(com_vel_xy, dtype=float) / omega
+    omega = xp.sqrt(g / h[..., None])  # ω = √(g/h)
+    return c + v / omega
 
 
 def zero_step_margin(capture_point: np.ndarray, support_polygon: np.ndarray) -> float | np.ndarray:

@@ -2,17 +2,18 @@
 
 from __future__ import annotations
 
-import numpy as np
+from hybrid_recovery.dynamics.arrays import Array
 
 
 def net_centroidal_wrench(
-    linear_momentum: np.ndarray,
-    angular_momentum: np.ndarray,
-    prev_linear_momentum: np.ndarray,
-    prev_angular_momentum: np.ndarray,
+    linear_momentum: Array,
+    angular_momentum: Array,
+    prev_linear_momentum: Array,
+    prev_angular_momentum: Array,
     dt: float,
-) -> tuple[np.ndarray, np.ndarray]:
-    """F_net = Δp_l / Δt and τ_net = ΔL / Δt from two consecutive states.
+) -> tuple[Array, Array]:
+    """F_net = Δp_l / Δt and τ_net = ΔL / Δt from two consecutive states (numpy arrays or
+    torch tensors).
 
     Args:
         linear_momentum: p_l(t), shape (..., 3) [kg·m/s].
@@ -26,6 +27,6 @@ def net_centroidal_wrench(
     """
     if not dt > 0.0:
         raise ValueError(f"dt must be > 0, got {dt}")
-    force = (np.asarray(linear_momentum) - prev_linear_momentum) / dt
-    torque = (np.asarray(angular_momentum) - prev_angular_momentum) / dt
+    force = (linear_momentum - prev_linear_momentum) / dt
+    torque = (angular_momentum - prev_angular_momentum) / dt
     return force, torque

@@ -12,7 +12,10 @@ edge, a knee point), while the monotone chain returns them as a point or a segme
 from __future__ import annotations
 
 import numpy as np
+from array_api_compat import array_namespace
+from array_api_compat import device as _device
 
+from hybrid_recovery.dynamics.arrays import Array
 from hybrid_recovery.dynamics.compiled import compiled
 
 _EPS = 1e-12
@@ -99,19 +102,20 @@ def signed_distance(point: np.ndarray, polygon: np.ndarray) -> float | np.ndarra
 
 
 def signed_distance_batched(
-    point: np.ndarray,
-    contact_points: np.ndarray,
-    mask: np.ndarray,
+    point: Array,
+    contact_points: Array,
+    mask: Array,
     no_contact: float = 1.0,
-) -> np.ndarray:
+) -> Array:
     """Signed distance of each env's point to the hull C of its active contacts.
 
-    Exact, per env in one compiled loop (:func:`_signed_distances`): a gift-wrapping
+    Numpy arrays: exact, per env in one compiled loop (:func:`_signed_distances`): a gift-wrapping
     (Jarvis) march from the lowest of the leftmost active points, each step to the point
     making the smallest counter-clockwise turn from the last edge (largest cosine; the
     first such point on ties). Then, as in :func:`signed_distance`, d = max over edges of
     n·(p − a) ≤ 0 inside and d = min over edges of dist(p, [a, b]) outside. One point or
-    collinear points have no inside (zero area) and give d ≥ 0.
+    collinear points have no inside (zero area) and give d ≥ 0. Torch tensors (any
+    device): the same distances with no loop, :func:`signed_distance_enumerated`.
 
     Args:
         point: Query points p, shape (N, 2) [m].
@@ -127,16 +131,65 @@ def signed_distance_batched(
     Raises:
         ValueError: shapes that do not fit together.
     """
+    _check_batch(point, contact_points, mask)
+    if not isinstance(point, np.ndarray):
+        return signed_distance_enumerated(point, contact_points, mask, no_contact)
     p = np.ascontiguousarray(point, dtype=float)
     c = np.ascontiguousarray(contact_points, dtype=float)  # z, if given, is not read
-    mask = np.ascontiguousarray(mask, dtype=bool)
-    n = mask.shape[0] if mask.ndim == 2 else -1
-    if p.shape != (n, 2) or c.shape[:2] != mask.shape or c.ndim != 3 or c.shape[2] not in (2, 3):
-        raise ValueError(f"signed_distance_batched needs point (N, 2), contact_points (N, M, 2|3) "
-                         f"and mask (N, M); got {p.shape}, {c.shape}, {mask.shape}")
     out = np.empty(mask.shape[0])
-    _signed_distances(p, c, mask, float(no_contact), out)
+    _signed_distances(p, c, np.ascontiguousarray(mask, dtype=bool), float(no_contact), out)
     return out
+
+
+def _check_batch(point: Array, contact_points: Array, mask: Array) -> None:
+    p, c, m = tuple(point.shape), tuple(contact_points.shape), tuple(mask.shape)
+    n = m[0] if len(m) == 2 else -1
+    if p != (n, 2) or c[:2] != m or len(c) != 3 or c[2] not in (2, 3):
+        raise ValueError(f"signed_distance_batched needs point (N, 2), contact_points (N, M, 2|3) "
+                         f"and mask (N, M); got {p}, {c}, {m}")
+
+
+def signed_distance_enumerated(point: Array, contact_points: Array, mask: Array,
+                               no_contact: float = 1.0) -> Array:
+    """:func:`signed_distance_batched` without a loop, in the array API (torch tensors on
+    any device, or numpy): the hull's edges are enumerated rather than marched.
+
+    An ordered pair (i, j) of distinct active points is an edge of C, traversed
+    counter-clockwise, when no active point k lies to its right: e × (c_k − c_i) ≥ −ε for
+    e = c_j − c_i (ε: 1e-12 m², or 64 ulp of the precision; collinear points give a
+    segment's edges both ways). Then, over the edges, d = max n·(p − c_i) ≤ 0 inside
+    (n = (e_y, −e_x)/‖e‖, outward), and outside d = min of the distances to the edges and
+    to the active points (a point or a segment has no inside). O(N M³) work and memory:
+    for a batch on a GPU, not a loop.
+
+    Args and Returns: as :func:`signed_distance_batched`, in ``point``'s precision.
+    """
+    _check_batch(point, contact_points, mask)
+    xp = array_namespace(point, contact_points, mask)
+    q = contact_points[..., :2]
+    qx, qy = q[..., 0], q[..., 1]  # (N, M)
+    ex = qx[:, None, :] - qx[:, :, None]  # e of pair (i, j), (N, M, M)
+    ey = qy[:, None, :] - qy[:, :, None]
+    # e × (c_k − c_i) = e × c_k − e × c_i, (N, M, M, M)
+    side = (ex[..., None] * qy[:, None, None, :] - ey[..., None] * qx[:, None, None, :]
+            - (ex * qy[:, :, None] - ey * qx[:, :, None])[..., None])
+    tol = max(_EPS, 64 * float(xp.finfo(side.dtype).eps))  # [m²]: float32 rounding
+    left = (side >= -tol) | ~mask[:, None, None, :]
+    length2 = ex * ex + ey * ey
+    pair = mask[:, :, None] & mask[:, None, :]
+    edge = pair & xp.all(left, axis=-1) & (length2 > _EPS**2)
+    # from p: w = p − c_i, (N, M, 1)
+    wx, wy = (point[:, 0:1] - qx)[..., None], (point[:, 1:2] - qy)[..., None]
+    length = xp.sqrt(length2)
+    normal = (ey * wx - ex * wy) / xp.where(edge, length, 1.0)
+    inside = xp.max(xp.where(edge, normal, -xp.inf), axis=(1, 2))
+    t = xp.clip((wx * ex + wy * ey) / xp.where(edge, length2, 1.0), 0.0, 1.0)
+    t = xp.where(edge, t, 0.0)  # a vertex: the distance to c_i
+    gap = xp.sqrt(xp.square(wx - t * ex) + xp.square(wy - t * ey))
+    vertex = xp.eye(mask.shape[1], dtype=xp.bool, device=_device(mask))[None] & pair
+    outside = xp.min(xp.where(edge | vertex, gap, xp.inf), axis=(1, 2))
+    d = xp.where(xp.any(edge, axis=(1, 2)) & (inside <= 0.0), inside, outside)
+    return xp.where(xp.any(mask, axis=1), d, no_contact)
 
 
 @compiled

@@ -20,9 +20,7 @@ from mujoco import batch as mjbatch
 from rsl_rl.env import VecEnv
 from tensordict import TensorDict
 
-from hybrid_recovery.dynamics import GRAVITY, net_centroidal_wrench
-from hybrid_recovery.dynamics.capturability import capture_point
-from hybrid_recovery.dynamics.support import signed_distance_batched
+from hybrid_recovery.dynamics import GRAVITY
 from hybrid_recovery.envs.assist import Assist
 from hybrid_recovery.envs.config import EnvConfig, default_config
 from hybrid_recovery.envs.curriculum import Curriculum
@@ -31,8 +29,14 @@ from hybrid_recovery.envs.pose_bridge import PoseBridge
 from hybrid_recovery.envs.pushes import Pushes
 from hybrid_recovery.envs.rewards import RewardState, compute_rewards
 from hybrid_recovery.envs.rise_starts import RiseStarts, turned
+from hybrid_recovery.envs.step_state import (
+    StepIndices,
+    privileged_observation,
+    read_step_state,
+    reward_state,
+)
 from hybrid_recovery.envs.terminations import TERMINATIONS, StuckLow, success_step
-from hybrid_recovery.observation.actor import actor_observation, noise_halfwidths, projected_gravity
+from hybrid_recovery.observation.actor import actor_observation, noise_halfwidths
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.action import clip_action, joint_targets
 from hybrid_recovery.robot.mjcf import default_qpos
@@ -43,10 +47,7 @@ from hybrid_recovery.sim.initial_states import (
     seat_on_ground,
     settle_pool,
 )
-from hybrid_recovery.sim.scene import build_scene, read_contacts
-
-PRIVILEGED_DIM = 17
-"""CoM position (3), velocity (3), acceleration (3), p_l (3), L (3), ξ − p_c,xy (2)."""
+from hybrid_recovery.sim.scene import build_scene
 
 _HARD_POSES = ("sitting", "supine", "prone")
 
@@ -152,9 +153,10 @@ class RecoveryEnv(VecEnv):
         self.nan_resets = 0
         self._state: dict[str, np.ndarray] = {}
         groups = self.layout.group_slots
-        self._foot_slots = (groups["left_foot"], groups["right_foot"])
-        self._feet_slots = np.concatenate(self._foot_slots)
-        self._support_slots = np.concatenate([groups["hands"], groups["elbows"]])
+        self._at = StepIndices(
+            self.layout, (groups["left_foot"], groups["right_foot"]),
+            np.concatenate([groups["hands"], groups["elbows"]]), groups["torso"],
+            self.feet, self.knees, self.qadr, self.dadr)
         self._reset(np.arange(n))
         self._read_state()
         self._read_state(np.arange(n))
@@ -252,57 +254,26 @@ class RecoveryEnv(VecEnv):
         """Balance quantities from sensordata, for all envs or just the reset ``ids``."""
         rows = slice(None) if ids is None else ids
         sd = self.sims.bind("sensordata")[rows].copy()
-        lay = self.layout
         mass = self.randomizer.mass[rows, 1:].sum(1)
-        com, vel = sd[:, lay.com], sd[:, lay.com_linvel]
-        lin, ang = mass[:, None] * vel, sd[:, lay.com_angmom]
-        momentum = np.concatenate([lin, ang], 1)
         if ids is not None:  # a new episode: no history for finite differences
-            self.prev_momentum[ids], self.prev_com_vel[ids] = momentum, vel
-        prev = self.prev_momentum[rows]
-        force, torque = net_centroidal_wrench(lin, ang, prev[:, :3], prev[:, 3:], self.dt)
-        acc = (vel - self.prev_com_vel[rows]) / self.dt
-        self.prev_momentum[rows], self.prev_com_vel[rows] = momentum, vel
-        cp = capture_point(com[:, :2], vel[:, :2], np.maximum(com[:, 2], 1e-3), g=GRAVITY)
-        active, normal, points = read_contacts(sd, lay)
-        active &= normal > 1.0
-        feet, support = self._feet_slots, self._support_slots
-        quat = sd[:, lay.quat]
-        new = dict(
-            mass=mass, com=com, com_vel=vel, com_acc=acc, lin=lin, ang=ang, cp=cp, height=com[:, 2],
-            height_vel=vel[:, 2], net_force=force, net_torque=torque,
-            d_com=signed_distance_batched(com[:, :2], points, active),
-            d_cp=signed_distance_batched(cp, points[:, feet], active[:, feet]),
-            torso_force=normal[:, lay.group_slots["torso"]].sum(1),
-            support_contacts=active[:, support].sum(1).astype(float),
-            foot_force=np.stack([(normal * active)[:, slots].sum(1)
-                                 for slots in self._foot_slots], 1),
-            foot_up=self.xmat[rows][:, self.feet, 8],
-            shin_up=self.xmat[rows][:, self.knees, 8],
-            gyro=sd[:, lay.gyro], quat=quat, gravity_b=projected_gravity(quat),
-            q=self.qpos[rows][:, self.qadr], dq=self.qvel[rows][:, self.dadr],
-            torque=self.sims.bind("actuator_force")[rows].copy(),
-        )
+            lay = self.layout
+            vel = sd[:, lay.com_linvel]
+            self.prev_momentum[ids] = np.concatenate([mass[:, None] * vel, sd[:, lay.com_angmom]],
+                                                     1)
+            self.prev_com_vel[ids] = vel
+        new = read_step_state(sd, self.xmat[rows], self.qpos[rows], self.qvel[rows],
+                              self.sims.bind("actuator_force")[rows].copy(), mass,
+                              self.prev_momentum[rows], self.prev_com_vel[rows], self._at, self.dt)
+        self.prev_momentum[rows], self.prev_com_vel[rows] = new.pop("momentum"), new["com_vel"]
         if ids is None:
             self._state = new
         else:
             for key, value in new.items():
                 self._state[key][ids] = value
 
-    def _reward_state(self, terminated: np.ndarray) -> RewardState:
-        s = self._state
-        lo, hi = self.randomizer.jnt_range[:, 1:1 + self.num_actions].transpose(2, 0, 1)
-        mid, half = (lo + hi) / 2, (hi - lo) / 2 * 0.95
-        excess = np.maximum(np.abs(s["q"] - mid) - half, 0.0).sum(1)
-        return RewardState(
-            height=s["height"], height_vel=s["height_vel"], com_distance=s["d_com"],
-            cp_distance=s["d_cp"], net_force=s["net_force"], net_torque=s["net_torque"],
-            torque=s["torque"], limit_violation=excess, action=self.action,
-            last_action=self.last_action, gravity_b=s["gravity_b"],
-            support_contacts=s["support_contacts"], foot_force=s["foot_force"],
-            foot_up=s["foot_up"], weight=s["mass"] * GRAVITY,
-            terminated=terminated,
-        )
+    def _reward_state(self, terminated: np.ndarray) -> RewardState[np.ndarray]:
+        return reward_state(self._state, self.randomizer.jnt_range[:, 1:1 + self.num_actions],
+                            self.action, self.last_action, terminated)
 
     def _observations(self) -> TensorDict:
         s = self._state
@@ -310,29 +281,11 @@ class RecoveryEnv(VecEnv):
         noisy = clean + self.rng.uniform(-1.0, 1.0, clean.shape).astype(np.float32) * self.noise
         critic = clean
         if self.cfg.privileged_critic:
-            critic = np.concatenate([clean, self._privileged()], 1)
+            privileged = privileged_observation(self._state, self.qpos[:, :2])
+            critic = np.concatenate([clean, privileged], 1)
         return TensorDict({"policy": torch.from_numpy(noisy),
                            "critic": torch.from_numpy(critic.astype(np.float32))},
                           batch_size=[self.num_envs])
-
-    def _privileged(self) -> np.ndarray:
-        """CoM state, momenta and capture point in the heading frame, (N, 17)."""
-        s = self._state
-        w, x, y, z = s["quat"].T
-        yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
-        c, si = np.cos(yaw)[:, None], np.sin(yaw)[:, None]
-
-        def heading(v: np.ndarray) -> np.ndarray:
-            out = v.copy()
-            x, y = v[:, 0:1], v[:, 1:2]
-            out[:, 0:1], out[:, 1:2] = c * x + si * y, -si * x + c * y
-            return out
-
-        rel = s["com"].copy()
-        rel[:, :2] -= self.qpos[:, :2]
-        cp_rel = np.concatenate([s["cp"] - s["com"][:, :2], np.zeros((self.num_envs, 1))], 1)
-        return np.concatenate([heading(rel), heading(s["com_vel"]), heading(s["com_acc"]),
-                               heading(s["lin"]), heading(s["ang"]), heading(cp_rel)[:, :2]], 1)
 
     # ------------------------------------------------------------------ resets
     def _sample_poses(self, count: int) -> np.ndarray:

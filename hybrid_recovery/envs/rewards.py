@@ -1,6 +1,8 @@
 """Reward terms of the paper (§III-E): R = R_I + R_II + R_III, each a pure batched function.
 
-Every term returns shape (N,). :data:`REWARD_TERMS` lists them with their weights;
+Every term returns shape (N,). The terms are written against the array API standard
+(``array_api_compat``): the same code computes them on numpy arrays (the CPU path) and on
+torch tensors on any device. :data:`REWARD_TERMS` lists them with their weights;
 :func:`compute_rewards` applies ``value × weight × Δt`` in one place and returns the
 per-term contributions for logging as ``reward/<name>``.
 """
@@ -9,14 +11,16 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any, Generic
 
-import numpy as np
+from array_api_compat import array_namespace
 
+from hybrid_recovery.dynamics.arrays import Array
 from hybrid_recovery.envs.config import RewardConfig
 
 
 @dataclass
-class RewardState:
+class RewardState(Generic[Array]):
     """The balance and actuation quantities the terms read; leading dimension N.
 
     Attributes:
@@ -38,111 +42,125 @@ class RewardState:
         terminated: early termination (not timeout), (N,) bool.
     """
 
-    height: np.ndarray
-    height_vel: np.ndarray
-    com_distance: np.ndarray
-    cp_distance: np.ndarray
-    net_force: np.ndarray
-    net_torque: np.ndarray
-    torque: np.ndarray
-    limit_violation: np.ndarray
-    action: np.ndarray
-    last_action: np.ndarray
-    gravity_b: np.ndarray
-    support_contacts: np.ndarray
-    foot_force: np.ndarray
-    foot_up: np.ndarray
-    weight: np.ndarray
-    terminated: np.ndarray
+    height: Array
+    height_vel: Array
+    com_distance: Array
+    cp_distance: Array
+    net_force: Array
+    net_torque: Array
+    torque: Array
+    limit_violation: Array
+    action: Array
+    last_action: Array
+    gravity_b: Array
+    support_contacts: Array
+    foot_force: Array
+    foot_up: Array
+    weight: Array
+    terminated: Array
 
 
 # ---------------------------------------------------------------- Group I: vertical recovery
-def height_gaussian(s: RewardState, c: RewardConfig, h_star: float) -> np.ndarray:
+def height_gaussian(s: RewardState[Array], c: RewardConfig, h_star: float) -> Array:
     """r_height = exp(−(h_c − h*)² / σ_h²) ∈ (0, 1]."""
-    return np.exp(-np.square(s.height - h_star) / c.sigma_height**2)
+    xp = array_namespace(s.height)
+    return xp.exp(-xp.square(s.height - h_star) / c.sigma_height**2)
 
 
-def rise_velocity(s: RewardState, c: RewardConfig, h_star: float) -> np.ndarray:
+def rise_velocity(s: RewardState[Array], c: RewardConfig, h_star: float) -> Array:
     """r_rise = α_r max(ḣ_c, 0) 1[h_c < h* − δ_h]: off inside the dead band."""
-    rising = np.maximum(s.height_vel, 0.0)
+    xp = array_namespace(s.height)
+    rising = xp.maximum(s.height_vel, 0.0)
     return c.alpha_rise * rising * (s.height < h_star - c.height_band)
 
 
-def fall_velocity_sq(s: RewardState, c: RewardConfig, h_star: float) -> np.ndarray:
+def fall_velocity_sq(s: RewardState[Array], c: RewardConfig, h_star: float) -> Array:
     """r_fall = −α_f max(−ḣ_c, 0)², off inside the dead band |h_c − h*| < δ_h."""
-    outside = np.abs(s.height - h_star) >= c.height_band
-    return -c.alpha_fall * np.square(np.maximum(-s.height_vel, 0.0)) * outside
+    xp = array_namespace(s.height)
+    outside = xp.abs(s.height - h_star) >= c.height_band
+    return -c.alpha_fall * xp.square(xp.maximum(-s.height_vel, 0.0)) * outside
 
 
-def stability_band(s: RewardState, c: RewardConfig, h_star: float) -> np.ndarray:
+def stability_band(s: RewardState[Array], c: RewardConfig, h_star: float) -> Array:
     """r_stab = α_s 1[|h_c − h*| < δ_h] − α_v |ḣ_c|, acting only inside the band."""
-    inside = np.abs(s.height - h_star) < c.height_band
-    return (c.alpha_stab - c.alpha_stab_vel * np.abs(s.height_vel)) * inside
+    xp = array_namespace(s.height)
+    inside = xp.abs(s.height - h_star) < c.height_band
+    return (c.alpha_stab - c.alpha_stab_vel * xp.abs(s.height_vel)) * inside
 
 
 # ---------------------------------------------------------------- Group II: balance
-def com_support_exp(s: RewardState, c: RewardConfig, h_star: float) -> np.ndarray:
+def com_support_exp(s: RewardState[Array], c: RewardConfig, h_star: float) -> Array:
     """r_CoM = exp(−d_CoM² / σ_c²); 1 anywhere inside C (d ≤ 0)."""
-    d = np.maximum(s.com_distance, 0.0)
-    return np.exp(-np.square(d) / c.sigma_com**2)
+    xp = array_namespace(s.height)
+    d = xp.maximum(s.com_distance, 0.0)
+    return xp.exp(-xp.square(d) / c.sigma_com**2)
 
 
-def capture_point_exp(s: RewardState, c: RewardConfig, h_star: float) -> np.ndarray:
+def capture_point_exp(s: RewardState[Array], c: RewardConfig, h_star: float) -> Array:
     """r_CP = exp(−d_CP² / σ_ξ²); 1 anywhere inside C_feet (d ≤ 0)."""
-    d = np.maximum(s.cp_distance, 0.0)
-    return np.exp(-np.square(d) / c.sigma_cp**2)
+    xp = array_namespace(s.height)
+    d = xp.maximum(s.cp_distance, 0.0)
+    return xp.exp(-xp.square(d) / c.sigma_cp**2)
 
 
-def momentum_rate_sq(s: RewardState, c: RewardConfig, h_star: float) -> np.ndarray:
+def momentum_rate_sq(s: RewardState[Array], c: RewardConfig, h_star: float) -> Array:
     """r_mom = −α_ℓ ‖F_net‖² − α_L ‖τ_net‖²."""
-    return -(c.alpha_lin * np.sum(np.square(s.net_force), -1)
-             + c.alpha_ang * np.sum(np.square(s.net_torque), -1))
+    xp = array_namespace(s.height)
+    return -(c.alpha_lin * xp.sum(xp.square(s.net_force), axis=-1)
+             + c.alpha_ang * xp.sum(xp.square(s.net_torque), axis=-1))
 
 
 # ---------------------------------------------------------------- Group III: regularisation
-def torque_sq(s: RewardState, c: RewardConfig, h_star: float) -> np.ndarray:
+def torque_sq(s: RewardState[Array], c: RewardConfig, h_star: float) -> Array:
     """−Σ τ² [(N·m)²]."""
-    return -np.sum(np.square(s.torque), -1)
+    xp = array_namespace(s.height)
+    return -xp.sum(xp.square(s.torque), axis=-1)
 
 
-def joint_limit(s: RewardState, c: RewardConfig, h_star: float) -> np.ndarray:
+def joint_limit(s: RewardState[Array], c: RewardConfig, h_star: float) -> Array:
     """−Σ excess of q beyond the soft position limits [rad]."""
     return -s.limit_violation
 
 
-def action_rate_sq(s: RewardState, c: RewardConfig, h_star: float) -> np.ndarray:
+def action_rate_sq(s: RewardState[Array], c: RewardConfig, h_star: float) -> Array:
     """−‖a_t − a_{t−1}‖²."""
-    return -np.sum(np.square(s.action - s.last_action), -1)
+    xp = array_namespace(s.height)
+    return -xp.sum(xp.square(s.action - s.last_action), axis=-1)
 
 
-def orientation_sq(s: RewardState, c: RewardConfig, h_star: float) -> np.ndarray:
+def orientation_sq(s: RewardState[Array], c: RewardConfig, h_star: float) -> Array:
     """−‖g_b,xy‖²: torso misalignment with gravity (0 upright, −1 lying)."""
-    return -np.sum(np.square(s.gravity_b[:, :2]), -1)
+    xp = array_namespace(s.height)
+    return -xp.sum(xp.square(s.gravity_b[:, :2]), axis=-1)
 
 
-def support_contact(s: RewardState, c: RewardConfig, h_star: float) -> np.ndarray:
+def support_contact(s: RewardState[Array], c: RewardConfig, h_star: float) -> Array:
     """Hand and elbow support (count, capped at 2), paid only while h_c < the gate height."""
-    return np.minimum(s.support_contacts, 2.0) * (s.height < c.contact_gate_height)
+    xp = array_namespace(s.height)
+    return xp.minimum(s.support_contacts, 2.0) * (s.height < c.contact_gate_height)
 
 
-def feet_load(s: RewardState, c: RewardConfig, h_star: float) -> np.ndarray:
+def feet_load(s: RewardState[Array], c: RewardConfig, h_star: float) -> Array:
     """r_feet = min(1, Σ_f F_f clip((u_z,f − u_min) / (1 − u_min), 0, 1) / (m g)) ∈ [0, 1]:
     the share of the weight on flat feet."""
-    flat = np.clip((s.foot_up - c.feet_flat) / (1.0 - c.feet_flat), 0.0, 1.0)
-    return np.minimum(np.sum(s.foot_force * flat, -1) / s.weight, 1.0)
+    xp = array_namespace(s.height)
+    flat = xp.clip((s.foot_up - c.feet_flat) / (1.0 - c.feet_flat), 0.0, 1.0)
+    return xp.minimum(xp.sum(s.foot_force * flat, axis=-1) / s.weight, 1.0)
 
 
-def alive(s: RewardState, c: RewardConfig, h_star: float) -> np.ndarray:
+def alive(s: RewardState[Array], c: RewardConfig, h_star: float) -> Array:
     """1 per step survived."""
-    return np.ones_like(s.height)
+    xp = array_namespace(s.height)
+    return xp.ones_like(s.height)
 
 
-def termination(s: RewardState, c: RewardConfig, h_star: float) -> np.ndarray:
+def termination(s: RewardState[Array], c: RewardConfig, h_star: float) -> Array:
     """1 on an early termination (timeouts excluded), times the negative weight."""
-    return s.terminated.astype(float)
+    xp = array_namespace(s.height)
+    return xp.astype(s.terminated, s.height.dtype)
 
 
-Term = Callable[[RewardState, RewardConfig, float], np.ndarray]
+Term = Callable[[RewardState[Any], RewardConfig, float], Any]
 
 REWARD_TERMS: tuple[tuple[str, str, Term], ...] = (
     # name, weight field of RewardConfig, function
@@ -169,15 +187,15 @@ CAPTURE_POINT_TERMS = ("com", "cp")
 
 
 def compute_rewards(
-    s: RewardState, c: RewardConfig, h_star: float, dt: float
-) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+    s: RewardState[Array], c: RewardConfig, h_star: float, dt: float
+) -> tuple[Array, dict[str, Array]]:
     """R = Σ_term value × weight × Δt.
 
     Returns:
         (total (N,), per-term contributions {name: (N,)}).
     """
-    total = np.zeros_like(s.height)
-    parts: dict[str, np.ndarray] = {}
+    total = array_namespace(s.height).zeros_like(s.height)
+    parts: dict[str, Array] = {}
     for name, weight_field, fn in REWARD_TERMS:
         weight = getattr(c, weight_field)
         if weight == 0.0 or (not c.use_capture_point and name in CAPTURE_POINT_TERMS):

@@ -2,8 +2,12 @@
 
 from __future__ import annotations
 
-import numpy as np
+import math
 
+import numpy as np
+from array_api_compat import array_namespace
+
+from hybrid_recovery.dynamics.arrays import Array
 from hybrid_recovery.robot.constants import UPRIGHT_COM_HEIGHT
 
 TERMINATIONS = ("timeout", "torso_contact", "stuck_low", "nan")
@@ -11,30 +15,29 @@ TERMINATIONS = ("timeout", "torso_contact", "stuck_low", "nan")
 
 SUCCESS_VERTICAL_SPEED = 0.1
 """|ḣ_c| below which it counts as steady [m/s]."""
-SUCCESS_TILT = np.deg2rad(72.0)
+SUCCESS_TILT = math.radians(72.0)
 """Torso tilt from vertical within which it counts as upright [rad]."""
 SUCCESS_TIME = 1.0
 """How long all three must hold [s]."""
 
 
-def upright(height: np.ndarray, height_vel: np.ndarray, gravity_b: np.ndarray,
-            still: bool = True) -> np.ndarray:
-    """The paper's standing condition at one instant, shape (N,) bool.
+def upright(height: Array, height_vel: Array, gravity_b: Array, still: bool = True) -> Array:
+    """The paper's standing condition at one instant, shape (N,) bool (numpy or torch).
 
     Args:
         height: CoM height h_c (N,) [m]; height_vel: ḣ_c (N,) [m/s];
         gravity_b: torso projected gravity (N, 3); tilt = arccos(−g_b,z).
         still: include the |ḣ_c| < 0.1 m/s clause (False: up and upright only).
     """
-    ok = (height > UPRIGHT_COM_HEIGHT) & (-gravity_b[..., 2] > np.cos(SUCCESS_TILT))
-    return ok & (np.abs(height_vel) < SUCCESS_VERTICAL_SPEED) if still else ok
+    xp = array_namespace(height, height_vel, gravity_b)
+    ok = (height > UPRIGHT_COM_HEIGHT) & (-gravity_b[..., 2] > math.cos(SUCCESS_TILT))
+    return ok & (xp.abs(height_vel) < SUCCESS_VERTICAL_SPEED) if still else ok
 
 
-def success_step(upright_time: np.ndarray, state: dict, dt: float,
-                 still: bool = True) -> np.ndarray:
+def success_step(upright_time: Array, state: dict, dt: float, still: bool = True) -> Array:
     """Time the standing condition has held without a break, after one step [s]."""
     ok = upright(state["height"], state["height_vel"], state["gravity_b"], still)
-    return np.where(ok, upright_time + dt, 0.0)
+    return array_namespace(upright_time).where(ok, upright_time + dt, 0.0)
 
 
 class StuckLow:

@@ -15,7 +15,9 @@ last_action              27  a_{t−1} (unscaled policy output)
 from __future__ import annotations
 
 import numpy as np
+from array_api_compat import array_namespace, device
 
+from hybrid_recovery.dynamics.arrays import Array
 from hybrid_recovery.robot.constants import DEFAULT_JOINT_POS, NUM_JOINTS
 
 ACTOR_TERMS: tuple[tuple[str, int], ...] = (
@@ -30,7 +32,7 @@ ACTOR_TERMS: tuple[tuple[str, int], ...] = (
 ACTOR_OBS_DIM = sum(width for _, width in ACTOR_TERMS)
 
 
-def projected_gravity(quat_wxyz: np.ndarray) -> np.ndarray:
+def projected_gravity(quat_wxyz: Array) -> Array:
     """Gravity direction in the body frame, g_b = Rᵀ (0, 0, −1).
 
     Args:
@@ -39,24 +41,25 @@ def projected_gravity(quat_wxyz: np.ndarray) -> np.ndarray:
     Returns:
         g_b, shape (..., 3); (0, 0, −1) when upright.
     """
+    xp = array_namespace(quat_wxyz)
     w, x, y, z = (quat_wxyz[..., i] for i in range(4))
     norm2 = w * w + x * x + y * y + z * z
     # third row of R (world z-axis in the body frame), negated
     gx = 2 * (x * z - w * y)
     gy = 2 * (y * z + w * x)
     gz = 1 - 2 * (x * x + y * y)
-    return -np.stack([gx, gy, gz], -1) / norm2[..., None]
+    return -xp.stack([gx, gy, gz], axis=-1) / norm2[..., None]
 
 
 def actor_observation(
-    ang_vel: np.ndarray,
-    quat_wxyz: np.ndarray,
-    joint_pos: np.ndarray,
-    joint_vel: np.ndarray,
-    last_action: np.ndarray,
+    ang_vel: Array,
+    quat_wxyz: Array,
+    joint_pos: Array,
+    joint_vel: Array,
+    last_action: Array,
     default_joint_pos: np.ndarray = DEFAULT_JOINT_POS,
-) -> np.ndarray:
-    """Builds o_t from raw proprioception (no noise).
+) -> Array:
+    """Builds o_t from raw proprioception (no noise); numpy arrays or torch tensors.
 
     Args:
         ang_vel: IMU angular velocity, shape (N, 3) [rad/s].
@@ -69,11 +72,10 @@ def actor_observation(
     Returns:
         o_t, shape (N, 87), float32.
     """
-    return np.concatenate(
-        [ang_vel, projected_gravity(quat_wxyz), joint_pos - default_joint_pos, joint_vel,
-         last_action],
-        axis=-1,
-    ).astype(np.float32)
+    xp = array_namespace(ang_vel, quat_wxyz, joint_pos, joint_vel, last_action)
+    q_star = xp.asarray(default_joint_pos, device=device(joint_pos))  # float64, as numpy promotes
+    parts = [ang_vel, projected_gravity(quat_wxyz), joint_pos - q_star, joint_vel, last_action]
+    return xp.astype(xp.concat(parts, axis=-1), xp.float32)
 
 
 def noise_halfwidths(ang_vel: float, gravity: float, joint_pos: float,

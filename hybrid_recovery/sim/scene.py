@@ -19,7 +19,9 @@ from pathlib import Path
 
 import mujoco
 import numpy as np
+from array_api_compat import array_namespace, device
 
+from hybrid_recovery.dynamics.arrays import Array
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.mjcf import FLOOR_NAME, load_spec
 
@@ -132,8 +134,9 @@ def build_scene(path: str | Path | None = None, timestep: float = 0.005,
     return model, layout
 
 
-def read_contacts(sensordata: np.ndarray, layout: SensorLayout):
-    """Active contact slots, their normal forces and points, from sensordata.
+def read_contacts(sensordata: Array, layout: SensorLayout) -> tuple[Array, Array, Array]:
+    """Active contact slots, their normal forces and points, from sensordata (a numpy
+    array or a torch tensor).
 
     Args:
         sensordata: shape (N, nsensordata).
@@ -142,8 +145,9 @@ def read_contacts(sensordata: np.ndarray, layout: SensorLayout):
     Returns:
         (active (N, M) bool, normal_force (N, M) [N], points (N, M, 3) [m]).
     """
+    xp = array_namespace(sensordata)
     found = sensordata[:, layout.contact_found_adr]
-    active = layout.contact_slot[None, :] < found
+    active = xp.asarray(layout.contact_slot, device=device(sensordata))[None, :] < found
     normal = sensordata[:, layout.contact_adr + 1] * active
     idx = layout.contact_adr[:, None] + np.arange(4, 7)[None, :]
     points = sensordata[:, idx]

@@ -2,9 +2,8 @@
 the recovery environment makes.
 
 The environment's MDP (observations, rewards, terminations, resets, pushes, domain
-randomisation, curriculum) is one numpy implementation over ``(N, …)`` arrays; this
-class gives it those arrays for MuJoCo Warp's state, so that the same code runs on either
-physics backend:
+randomisation, curriculum) runs over ``(N, …)`` arrays; this class gives it those arrays
+for MuJoCo Warp's state, so that the same code runs on either physics backend:
 
 * on the ``cpu`` device, :meth:`bind` and :meth:`expand` return **zero-copy** numpy views
   of the Warp arrays (float32, MuJoCo Warp's precision): a write by the environment is a
@@ -13,7 +12,9 @@ physics backend:
   has a host copy: before every call that runs kernels all of them are uploaded, after it
   the bound ones are downloaded (``mirror=True``, a few MB per control step at 4096
   worlds). The same mirror runs on the CPU device with ``mirror=True``, which is how it
-  is tested without a GPU.
+  is tested without a GPU;
+* on either device :meth:`tensor` returns a zero-copy torch view of a data field, which
+  the per-step terms (:mod:`hybrid_recovery.envs.step_state`, array API) read in place.
 
 Semantics follow ``Batch``: ``step(nstep, stage)`` runs ``nstep`` ``mj_step`` and then the
 stages up to ``stage`` at the new state (acceleration-stage sensors such as contact
@@ -27,11 +28,15 @@ from __future__ import annotations
 import copy
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
+from typing import TYPE_CHECKING
 
 import mujoco
 import mujoco_warp as mjw
 import numpy as np
 import warp as wp
+
+if TYPE_CHECKING:
+    import torch
 
 DERIVED_FIELDS = ("body_subtreemass", "body_invweight0", "dof_invweight0", "actuator_acc0")
 """Model fields ``set_const`` derives from mass, inertia and armature: per world as soon
@@ -96,6 +101,21 @@ class WarpBatch:
                 raise KeyError(f"MuJoCo Warp data has no field '{name}'")
             self._bound[name] = self._host(getattr(self.d, name), name in _MATRIX_FIELDS)
         return self._bound[name]
+
+    def tensor(self, name: str) -> torch.Tensor:
+        """A zero-copy torch view of MjData field ``name`` on the simulation's device,
+        (N, …) in MuJoCo's layout (rotation matrices as 9 numbers), float32: what the
+        MDP's array-API terms (:mod:`hybrid_recovery.envs.step_state`) read on a GPU with
+        no host copy. In mirror mode it holds the device's values: current after a call
+        that ran kernels, until the host copies are uploaded by the next one.
+
+        Raises:
+            KeyError: a field MuJoCo Warp's data does not hold.
+        """
+        if not hasattr(self.d, name):
+            raise KeyError(f"MuJoCo Warp data has no field '{name}'")
+        view = wp.to_torch(getattr(self.d, name))
+        return view.reshape(*view.shape[:-2], 9) if name in _MATRIX_FIELDS else view
 
     def expand(self, name: str) -> np.ndarray:
         """The live (N, …) per-world values of model field ``name``, float32.
