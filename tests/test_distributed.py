@@ -1,39 +1,41 @@
-"""Several training processes (``torchrun``): each rank's device and seed, and only rank 0
-writes the run. rsl-rl's NCCL all-reduce itself needs GPUs and is not run here."""
+"""Several training processes (``torchrun``): each rank's device and seed, only rank 0
+writes the run, and two CPU processes train one policy over gloo (the collectives of
+rsl-rl's multi-GPU mode; NCCL between GPUs needs GPUs and is not run here)."""
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import pytest
+import torch
+from test_teacher import recording  # noqa: F401  (the fixture: a recorded rise)
 
 from hybrid_recovery.training import train
+from hybrid_recovery.training.checkpoint import load_checkpoint
 from hybrid_recovery.training.config import TrainConfig
 from hybrid_recovery.training.distributed import Rank, process_rank
 
 
 def test_one_process_without_torchrun():
-    assert process_rank("cpu", {}) == Rank(1, 0, 0)
-    assert process_rank("cuda", {"WORLD_SIZE": "1"}) == Rank(1, 0, 0)
+    assert process_rank({}) == Rank(1, 0, 0)
+    assert process_rank({"WORLD_SIZE": "1"}) == Rank(1, 0, 0)
 
 
 def test_torchrun_ranks_get_their_gpu_and_seed():
-    rank = process_rank("cuda", {"WORLD_SIZE": "4", "RANK": "3", "LOCAL_RANK": "1"})
+    rank = process_rank({"WORLD_SIZE": "4", "RANK": "3", "LOCAL_RANK": "1"})
     assert rank == Rank(4, 3, 1)
     assert rank.learner_device("cuda") == "cuda:1"
     assert rank.seed(7) == 10
     assert not rank.writes and Rank(4, 0, 0).writes
 
 
-def test_several_processes_need_cuda():
-    with pytest.raises(ValueError) as err:
-        process_rank("cpu", {"WORLD_SIZE": "2", "RANK": "0", "LOCAL_RANK": "0"})
-    assert str(err.value) == ("2 training processes (WORLD_SIZE) need --device cuda: "
-                              "rsl-rl's multi-GPU mode all-reduces gradients over NCCL")
-
-
 def test_a_rank_outside_the_world_is_refused():
     with pytest.raises(ValueError) as err:
-        process_rank("cuda", {"WORLD_SIZE": "2", "RANK": "2", "LOCAL_RANK": "0"})
+        process_rank({"WORLD_SIZE": "2", "RANK": "2", "LOCAL_RANK": "0"})
     assert str(err.value) == "RANK 2 and LOCAL_RANK 0 must be in [0, 2)"
 
 
@@ -66,3 +68,32 @@ def test_a_resume_runs_where_it_is_told_and_learns_what_it_learnt(tmp_path):
     resumed = _resumed_config(tmp_path, now, given={"backend", "device", "seed"})
     assert (resumed.backend, resumed.device) == ("warp", "cuda")
     assert resumed.seed == 5 and resumed.hidden_dims == (32, 32)
+
+
+@pytest.mark.slow
+def test_two_cpu_processes_train_one_policy(tmp_path, recording):  # noqa: F811
+    """``torchrun --nproc_per_node=2`` on the CPU (gloo): rsl-rl's distributed mode with the
+    training's update and the teacher. Each rank simulates its own episodes, yet after
+    three updates both hold the same networks, normalisers and step size (the
+    gradients, the teacher's among them, and the statistics are all-reduced), which
+    moved from where they started; only rank 0 wrote the run, counting both ranks' steps."""
+    path, _ = recording
+    done = subprocess.run(
+        [sys.executable, "-m", "torch.distributed.run", "--standalone", "--nproc_per_node=2",
+         str(Path(__file__).parent / "distributed_worker.py"), str(tmp_path), str(path)],
+        capture_output=True, text=True, timeout=600,
+        env={**os.environ, "OMP_NUM_THREADS": "1"})
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    ranks = [torch.load(tmp_path / f"rank{k}.pt") for k in (0, 1)]
+    for net in ("actor", "critic"):
+        first, second = ranks[0][net], ranks[1][net]
+        assert first.keys() == second.keys()
+        for key in first:
+            assert torch.equal(first[key], second[key]), f"{net}.{key}"
+    assert ranks[0]["learning_rate"] == ranks[1]["learning_rate"]
+    assert not torch.equal(ranks[0]["qpos"], ranks[1]["qpos"])  # their own episodes
+    saved = load_checkpoint(tmp_path / "run" / "latest.pt")
+    assert saved["infos"]["env_steps"] == 3 * 4 * 8 * 2
+    started = load_checkpoint(tmp_path / "run" / "model_0.pt")["actor_state_dict"]
+    assert not torch.equal(started["mlp.0.weight"], ranks[0]["actor"]["mlp.0.weight"])
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["rank0.pt", "rank1.pt", "run"]

@@ -34,7 +34,7 @@ from hybrid_recovery.training.config import (
     runner_dict,
     train_config_from_dict,
 )
-from hybrid_recovery.training.distributed import Rank, process_rank
+from hybrid_recovery.training.distributed import Rank, join_cpu_group, process_rank
 from hybrid_recovery.training.graceful_stop import StopRequest, TrainingStopped, stop_on_signals
 from hybrid_recovery.training.record import hardware
 from hybrid_recovery.training.teacher import Teacher, TeacherPPO, make_teacher
@@ -64,6 +64,16 @@ class RecoveryRunner(OnPolicyRunner):
                 self._stop_saved(int(iteration["it"]))
 
         self.logger.log = log_then_stop  # type: ignore[method-assign]
+
+    def _configure_multi_gpu(self) -> None:
+        """rsl-rl's multi-GPU set-up; CPU processes under ``torchrun`` join over gloo."""
+        rank = process_rank()
+        if self.device != "cpu" or rank.world_size == 1:
+            super()._configure_multi_gpu()
+            return
+        self.gpu_world_size, self.is_distributed = rank.world_size, True
+        self.gpu_global_rank, self.gpu_local_rank = rank.rank, rank.local_rank
+        self.cfg["multi_gpu"] = join_cpu_group(rank)
 
     def _stop_saved(self, it: int) -> None:
         """Saves iteration ``it`` (on the rank that writes) and ends the run."""
@@ -225,7 +235,7 @@ def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
     """
     run_dir = Path(run_dir)
     check_backend(cfg.backend, cfg.device)
-    rank = rank or process_rank(cfg.device)
+    rank = rank or process_rank()
     if amend and not resume:
         raise ValueError("amendments change a resumed run; give a new run its settings "
                          "as options instead")

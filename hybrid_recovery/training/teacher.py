@@ -27,12 +27,13 @@ of Schmitt et al. (arXiv 1803.03835) with recorded states in place of a teacher 
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import mujoco
 import numpy as np
 import torch
+from rsl_rl.utils.utils import reduce_gradients_in_buckets
 from tensordict import TensorDict
 
 from hybrid_recovery.envs import RecoveryEnv
@@ -142,14 +143,18 @@ class Teacher:
         """Step size now: lr₀ · max(0, 1 − updates / anneal_iterations)."""
         return self.cfg.learning_rate * max(0.0, 1.0 - self.updates / self.cfg.anneal_iterations)
 
-    def step(self, actor: torch.nn.Module,
-             anchor: torch.Tensor | None = None) -> dict[str, float]:
+    def step(self, actor: torch.nn.Module, anchor: torch.Tensor | None = None,
+             reduce: Callable[[list[torch.nn.Parameter]], None] | None = None
+             ) -> dict[str, float]:
         """``steps`` Adam steps of L_T (+ ``cfg.anchor`` · L_A) on ``actor`` (mean output).
 
         Args:
             anchor: o (R, 87), the rollout's actor observations; L_A = mean
                 ‖μ_θ(o) − μ_ref(o)‖² over a batch of them, μ_ref the actor frozen at the
                 teacher's first step, keeps the actor where it was on its own states.
+            reduce: averages the gradients of these parameters over the training's
+                processes (``torchrun``) before each step, so that every rank's actor
+                takes the same step; None: one process.
 
         Returns:
             the mean L_T before each step (``teacher``), the mean L_A (``anchor``, when
@@ -186,7 +191,10 @@ class Teacher:
                 loss = loss + self.cfg.anchor * kept
             self._optimizer.zero_grad()
             loss.backward()
-            torch.nn.utils.clip_grad_norm_(self._optimizer.param_groups[0]["params"], 1.0)
+            params = self._optimizer.param_groups[0]["params"]
+            if reduce is not None:
+                reduce(params)
+            torch.nn.utils.clip_grad_norm_(params, 1.0)
             self._optimizer.step()
         out = {"teacher": total / self.cfg.steps, "teacher_lr": lr}
         if anchor is not None and self.cfg.anchor > 0.0:
@@ -225,8 +233,13 @@ class TeacherPPO(SplitUpdatePPO):
             anchor = self.storage.observations["policy"].flatten(0, 1).clone()
         losses = super().update()
         if self.teacher is not None:
-            losses.update(self.teacher.step(self._raw_actor, anchor))
+            losses.update(self.teacher.step(self._raw_actor, anchor,
+                                            self._reduce if self.is_multi_gpu else None))
         return losses
+
+    def _reduce(self, params: list[torch.nn.Parameter]) -> None:
+        """The teacher's gradients averaged over the processes, as rsl-rl's PPO's."""
+        reduce_gradients_in_buckets(params, self.gpu_world_size, self.grad_reduce_bucket_mb)
 
 
 def make_teacher(cfg: TeacherConfig, env: RecoveryEnv, seed: int = 0) -> Teacher:
