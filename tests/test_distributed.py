@@ -70,6 +70,16 @@ def test_a_resume_runs_where_it_is_told_and_learns_what_it_learnt(tmp_path):
     assert resumed.seed == 5 and resumed.hidden_dims == (32, 32)
 
 
+def _torchrun(out: Path, rises: Path, mode: str) -> list[dict]:
+    """Two CPU processes of ``distributed_worker.py``; what each rank saved."""
+    done = subprocess.run(
+        [sys.executable, "-m", "torch.distributed.run", "--standalone", "--nproc_per_node=2",
+         str(Path(__file__).parent / "distributed_worker.py"), str(out), str(rises), mode],
+        capture_output=True, text=True, timeout=600, env={**os.environ, "OMP_NUM_THREADS": "1"})
+    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
+    return [torch.load(out / f"rank{k}.pt") for k in (0, 1)]
+
+
 @pytest.mark.slow
 def test_two_cpu_processes_train_one_policy(tmp_path, recording):  # noqa: F811
     """``torchrun --nproc_per_node=2`` on the CPU (gloo): rsl-rl's distributed mode with the
@@ -77,14 +87,7 @@ def test_two_cpu_processes_train_one_policy(tmp_path, recording):  # noqa: F811
     three updates both hold the same networks, normalisers and step size (the
     gradients, the teacher's among them, and the statistics are all-reduced), which
     moved from where they started; only rank 0 wrote the run, counting both ranks' steps."""
-    path, _ = recording
-    done = subprocess.run(
-        [sys.executable, "-m", "torch.distributed.run", "--standalone", "--nproc_per_node=2",
-         str(Path(__file__).parent / "distributed_worker.py"), str(tmp_path), str(path)],
-        capture_output=True, text=True, timeout=600,
-        env={**os.environ, "OMP_NUM_THREADS": "1"})
-    assert done.returncode == 0, done.stdout[-3000:] + done.stderr[-3000:]
-    ranks = [torch.load(tmp_path / f"rank{k}.pt") for k in (0, 1)]
+    ranks = _torchrun(tmp_path, recording[0], "train")
     for net in ("actor", "critic"):
         first, second = ranks[0][net], ranks[1][net]
         assert first.keys() == second.keys()
@@ -93,7 +96,21 @@ def test_two_cpu_processes_train_one_policy(tmp_path, recording):  # noqa: F811
     assert ranks[0]["learning_rate"] == ranks[1]["learning_rate"]
     assert not torch.equal(ranks[0]["qpos"], ranks[1]["qpos"])  # their own episodes
     saved = load_checkpoint(tmp_path / "run" / "latest.pt")
-    assert saved["infos"]["env_steps"] == 3 * 4 * 8 * 2
+    assert saved["iter"] == 2 and saved["infos"]["env_steps"] == 3 * 4 * 8 * 2
     started = load_checkpoint(tmp_path / "run" / "model_0.pt")["actor_state_dict"]
     assert not torch.equal(started["mlp.0.weight"], ranks[0]["actor"]["mlp.0.weight"])
     assert sorted(p.name for p in tmp_path.iterdir()) == ["rank0.pt", "rank1.pt", "run"]
+
+
+@pytest.mark.slow
+def test_a_stop_asked_on_one_rank_stops_every_rank_after_the_same_iteration_saved(
+        tmp_path, recording):  # noqa: F811
+    """SIGTERM to rank 1 alone (as when one node of a job is preempted): both ranks end
+    after iteration 1, rank 0 having saved it; alone, rank 1 would have left and rank 0
+    waited for it in the next update's all-reduce."""
+    ranks = _torchrun(tmp_path, recording[0], "stop-on-rank-1")
+    assert ranks[1]["ended"] == "SIGTERM: stopped after iteration 1, saved; continue with --resume"
+    assert ranks[0]["ended"] == ("a stop asked on another rank: stopped after iteration 1, "
+                                 "saved; continue with --resume")
+    assert load_checkpoint(tmp_path / "run" / "latest.pt")["iter"] == 1
+    assert (tmp_path / "run" / "model_1.pt").is_file()

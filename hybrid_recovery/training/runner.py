@@ -60,7 +60,7 @@ class RecoveryRunner(OnPolicyRunner):
 
         def log_then_stop(**iteration) -> None:
             log(**iteration)
-            if self.stop.asked:
+            if self._stop_agreed():
                 self._stop_saved(int(iteration["it"]))
 
         self.logger.log = log_then_stop  # type: ignore[method-assign]
@@ -75,13 +75,24 @@ class RecoveryRunner(OnPolicyRunner):
         self.gpu_global_rank, self.gpu_local_rank = rank.rank, rank.local_rank
         self.cfg["multi_gpu"] = join_cpu_group(rank)
 
+    def _stop_agreed(self) -> bool:
+        """Whether the run stops after this iteration: asked here or, under ``torchrun``,
+        on any rank (one flag all-reduced), so that every rank stops after the same
+        iteration; a rank stopping alone would leave the others waiting in the next
+        update's all-reduce, and rank 0 would not save."""
+        if not self.is_distributed:
+            return self.stop.asked
+        flag = torch.tensor([float(self.stop.asked)], device=self.device)
+        torch.distributed.all_reduce(flag, op=torch.distributed.ReduceOp.MAX)
+        return bool(flag.item() > 0.0)
+
     def _stop_saved(self, it: int) -> None:
         """Saves iteration ``it`` (on the rank that writes) and ends the run."""
-        assert self.stop.signal is not None
         if self.logger.writer is not None:
             self.save(os.path.join(self.logger.log_dir, f"model_{it}.pt"))
-        raise TrainingStopped(f"{self.stop.signal.name}: stopped after iteration {it}, "
-                              f"saved; continue with --resume")
+        asked = self.stop.signal.name if self.stop.signal else "a stop asked on another rank"
+        raise TrainingStopped(f"{asked}: stopped after iteration {it}, saved; continue with "
+                              f"--resume")
 
     @property
     def teacher(self) -> Teacher | None:
