@@ -10,6 +10,8 @@ import numpy as np
 import pytest
 import torch
 
+from hybrid_recovery.dynamics import net_centroidal_wrench
+from hybrid_recovery.dynamics.capturability import capture_point
 from hybrid_recovery.dynamics.support import signed_distance_batched, signed_distance_enumerated
 from hybrid_recovery.envs import RecoveryEnv, default_config
 from hybrid_recovery.envs.rewards import compute_rewards
@@ -133,3 +135,15 @@ def test_enumerated_hull_distance_checks_shapes():
     with pytest.raises(ValueError, match="contact_points"):
         signed_distance_batched(torch.zeros(3, 2), torch.zeros(3, 4, 2), torch.zeros(3, 5,
                                                                                     dtype=bool))
+
+
+def test_the_public_functions_still_take_lists_and_numbers():
+    force, torque = net_centroidal_wrench([1.0, 2.0, 3.0], [0.0, 0.0, 1.0], [0.0, 0.0, 0.0],
+                                          [0.0, 0.0, 0.0], 0.5)
+    np.testing.assert_array_equal(force, [2.0, 4.0, 6.0])
+    np.testing.assert_array_equal(torque, [0.0, 0.0, 2.0])
+    xi = capture_point([0.1, 0.2], (0.3, 0.0), 9.81, g=9.81)  # ω = 1
+    assert isinstance(xi, np.ndarray) and xi.dtype == np.float64
+    np.testing.assert_allclose(xi, [0.4, 0.2])
+    np.testing.assert_allclose(capture_point([[0.1, 0.2]], [[0.3, 0.0]], [9.81], g=9.81),
+                               [[0.4, 0.2]])

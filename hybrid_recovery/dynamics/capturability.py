@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 from array_api_compat import array_namespace, device
 
-from hybrid_recovery.dynamics.arrays import Array
+from hybrid_recovery.dynamics.arrays import Array, as_arrays
 from hybrid_recovery.dynamics.support import (
     signed_distance,
     signed_distance_batched,
@@ -52,6 +52,9 @@ def capture_point(
     Raises:
         ValueError: When some h ≤ 0.
     """
+    com_xy, com_vel_xy = as_arrays(com_xy, com_vel_xy)
+    if not isinstance(height, int | float):
+        (height,) = as_arrays(height)
     xp = array_namespace(com_xy, com_vel_xy, height)
     dtype = xp.float64 if isinstance(com_xy, np.ndarray) else com_xy.dtype
     c, v = xp.asarray(com_xy, dtype=dtype), xp.asarray(com_vel_xy, dtype=dtype)

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from hybrid_recovery.dynamics.arrays import Array
+from hybrid_recovery.dynamics.arrays import Array, as_arrays
 
 
 def net_centroidal_wrench(
@@ -27,6 +27,8 @@ def net_centroidal_wrench(
     """
     if not dt > 0.0:
         raise ValueError(f"dt must be > 0, got {dt}")
+    linear_momentum, angular_momentum, prev_linear_momentum, prev_angular_momentum = as_arrays(
+        linear_momentum, angular_momentum, prev_linear_momentum, prev_angular_momentum)
     force = (linear_momentum - prev_linear_momentum) / dt
     torque = (angular_momentum - prev_angular_momentum) / dt
     return force, torque
