@@ -73,7 +73,7 @@ def actor_observation(
         o_t, shape (N, 87), float32.
     """
     xp = array_namespace(ang_vel, quat_wxyz, joint_pos, joint_vel, last_action)
-    q_star = xp.asarray(default_joint_pos, device=device(joint_pos))  # float64, as numpy promotes
+    q_star = xp.asarray(default_joint_pos, copy=True, device=device(joint_pos))  # float64
     parts = [ang_vel, projected_gravity(quat_wxyz), joint_pos - q_star, joint_vel, last_action]
     return xp.astype(xp.concat(parts, axis=-1), xp.float32)
 
