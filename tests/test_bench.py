@@ -95,6 +95,28 @@ def test_env_bench_reports_rates_and_split():
                                            "resets", "rewards_terminations_other"}
 
 
+
+def test_terms_bench_times_numpy_and_torch_on_the_same_arrays():
+    import torch
+
+    from hybrid_recovery.bench import run_terms_bench
+
+    result = run_terms_bench(n=8, repeat=2, steps=2)
+    figures = json.loads(result.json_line())
+    assert figures["bench"] == "terms" and figures["num_envs"] == 8
+    assert figures["device"] == "cpu" and figures["numpy_ms"] > 0 and figures["torch_ms"] > 0
+    assert figures["ratio"] == pytest.approx(figures["numpy_ms"] / figures["torch_ms"], rel=2e-3)
+    for name in ("numpy", "torch"):
+        parts = figures["ms"][name]
+        assert set(parts) == {"state_and_hulls", "rewards", "observations"}
+        assert sum(parts.values()) == pytest.approx(figures[f"{name}_ms"], abs=2e-3)
+    assert [row[0] for row in result.rows] == ["state_and_hulls", "rewards", "observations",
+                                               "all"]
+    if not torch.cuda.is_available():
+        with pytest.raises(ValueError, match="needs a CUDA GPU"):
+            run_terms_bench(n=8, device="cuda")
+
+
 _WARP = pytest.mark.skipif(importlib.util.find_spec("mujoco_warp") is None,
                            reason="MuJoCo Warp not installed (the 'warp' extra)")
 

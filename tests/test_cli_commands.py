@@ -17,7 +17,7 @@ def test_bench_lists_every_target(capsys):
     with pytest.raises(SystemExit) as done:
         main(["bench", "--help"])
     assert done.value.code == 0
-    assert "{dynamics,env,train,qp,deploy}" in capsys.readouterr().out
+    assert "{dynamics,env,terms,train,qp,deploy}" in capsys.readouterr().out
     with pytest.raises(SystemExit):
         main(["bench", "qp", "--stepping", "sometimes"])
     assert "invalid choice: 'sometimes'" in capsys.readouterr().err

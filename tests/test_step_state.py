@@ -10,19 +10,12 @@ import numpy as np
 import pytest
 import torch
 
+from hybrid_recovery.bench.terms import env_arrays, step_terms
 from hybrid_recovery.dynamics import net_centroidal_wrench
 from hybrid_recovery.dynamics.capturability import capture_point
 from hybrid_recovery.dynamics.support import signed_distance_batched, signed_distance_enumerated
 from hybrid_recovery.envs import RecoveryEnv, default_config
-from hybrid_recovery.envs.rewards import compute_rewards
-from hybrid_recovery.envs.step_state import (
-    PRIVILEGED_DIM,
-    privileged_observation,
-    read_step_state,
-    reward_state,
-)
-from hybrid_recovery.envs.terminations import success_step, upright
-from hybrid_recovery.observation.actor import actor_observation
+from hybrid_recovery.envs.step_state import PRIVILEGED_DIM
 
 DEVICES = ["cpu"] + (["cuda"] if torch.cuda.is_available() else [])
 F64_TOL = 1e-9
@@ -43,34 +36,8 @@ def arrays():
     gen = torch.Generator().manual_seed(1)
     for _ in range(12):
         env.step(torch.randn(cfg.num_envs, 27, generator=gen) * 0.5)
-    rng = np.random.default_rng(2)
-    return dict(
-        sensordata=env.sims.bind("sensordata").copy(), xmat=env.xmat.copy(),
-        qpos=env.qpos.copy(), qvel=env.qvel.copy(),
-        actuator_force=env.sims.bind("actuator_force").copy(),
-        mass=env.randomizer.mass[:, 1:].sum(1), prev_momentum=env.prev_momentum.copy()
-        + rng.normal(0.0, 1.0, env.prev_momentum.shape),
-        prev_com_vel=env.prev_com_vel.copy() + rng.normal(0.0, 0.1, env.prev_com_vel.shape),
-        joint_range=env.randomizer.jnt_range[:, 1:28].copy(), action=env.action.copy(),
-        last_action=env.last_action.copy(), terminated=rng.random(cfg.num_envs) < 0.3,
-        upright_time=rng.uniform(0.0, 1.0, cfg.num_envs),
-    ), env._at, env.dt, env.cfg.rewards, env.h_star
-
-
-def _terms(a: dict, at, dt: float, rewards_cfg, h_star: float) -> dict:
-    """Every per-step term of the MDP from arrays ``a`` (numpy or torch)."""
-    s = read_step_state(a["sensordata"], a["xmat"], a["qpos"], a["qvel"], a["actuator_force"],
-                        a["mass"], a["prev_momentum"], a["prev_com_vel"], at, dt)
-    total, parts = compute_rewards(
-        reward_state(s, a["joint_range"], a["action"], a["last_action"], a["terminated"]),
-        rewards_cfg, h_star, dt)
-    out = {f"state/{k}": v for k, v in s.items()}
-    out |= {f"reward/{k}": v for k, v in parts.items()} | {"reward": total}
-    out["actor"] = actor_observation(s["gyro"], s["quat"], s["q"], s["dq"], a["action"])
-    out["privileged"] = privileged_observation(s, a["qpos"][:, :2])
-    out["upright"] = upright(s["height"], s["height_vel"], s["gravity_b"])
-    out["success_time"] = success_step(a["upright_time"], s, dt)
-    return out
+    return env_arrays(env, np.random.default_rng(2)), env._at, env.dt, env.cfg.rewards, \
+        env.h_star
 
 
 def _numpy(value) -> np.ndarray:
@@ -81,10 +48,10 @@ def _numpy(value) -> np.ndarray:
 @pytest.mark.parametrize("dtype", [torch.float64, torch.float32])
 def test_torch_tensors_give_the_numpy_terms(arrays, device, dtype):
     a, at, dt, rewards_cfg, h_star = arrays
-    expected = _terms(a, at, dt, rewards_cfg, h_star)
+    expected = step_terms(a, at, dt, rewards_cfg, h_star)
     tensors = {k: torch.as_tensor(v, device=device) for k, v in a.items()}
     tensors = {k: v.to(dtype) if v.is_floating_point() else v for k, v in tensors.items()}
-    got = _terms(tensors, at, dt, rewards_cfg, h_star)
+    got = step_terms(tensors, at, dt, rewards_cfg, h_star)
     assert got.keys() == expected.keys()
     assert expected["privileged"].shape == (len(a["mass"]), PRIVILEGED_DIM)
     # the state is varied: contacts of several kinds, envs inside and outside their hulls
@@ -129,6 +96,12 @@ def test_enumerated_hull_distance_equals_the_compiled_march(device):
     np.testing.assert_allclose(_numpy(got), want, rtol=0, atol=1e-12)
     single = [x.float() if x.is_floating_point() else x for x in tensors]
     np.testing.assert_allclose(_numpy(signed_distance_batched(*single)), want, rtol=0, atol=1e-5)
+    # one env with every slot active (no compaction), and a batch with no contact at all
+    mask[0] = True
+    np.testing.assert_allclose(signed_distance_enumerated(point, contacts, mask),
+                               signed_distance_batched(point, contacts, mask), rtol=0, atol=1e-12)
+    none = signed_distance_enumerated(*tensors[:2], torch.zeros_like(tensors[2]), no_contact=2.5)
+    assert none.dtype == torch.float64 and (none == 2.5).all()
 
 
 def test_enumerated_hull_distance_checks_shapes():

@@ -1,4 +1,5 @@
-"""``hybrid-recovery bench {dynamics,env,train,qp,deploy}``: one command, one target each."""
+"""``hybrid-recovery bench {dynamics,env,terms,train,qp,deploy}``: one command, one target
+each."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import json
 from hybrid_recovery.cli.registry import command, parse_overrides
 from hybrid_recovery.cli.validate import add_backend_options, integer, non_negative, positive
 
-LAYER_BENCHES = ("dynamics", "env", "train")
+LAYER_BENCHES = ("dynamics", "env", "terms", "train")
 """Targets of :data:`hybrid_recovery.bench.BENCHES`: a table, then one JSON line."""
 
 
@@ -58,6 +59,7 @@ def _configure_bench(p: argparse.ArgumentParser) -> None:
         (*LAYER_BENCHES, "qp", "deploy")) + "}")
     helps = {"dynamics": "balance quantities per state against mj_forward",
              "env": "environment steps per second and their split",
+             "terms": "the MDP's per-step terms on numpy and on torch tensors (CPU or GPU)",
              "train": "end-to-end training throughput against the physics-only rate, and "
                       "the PPO update's parts"}
     for name in LAYER_BENCHES:
@@ -69,6 +71,9 @@ def _configure_bench(p: argparse.ArgumentParser) -> None:
         t.add_argument("--seed", type=int, default=None)
         if name in ("env", "train"):
             add_backend_options(t)
+        if name == "terms":
+            t.add_argument("--device", choices=("cpu", "cuda"), default=None,
+                           help="where the torch tensors live (default cpu)")
         if name == "env":
             t.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",
                            help="EnvConfig overrides, e.g. physics_dt=0.01 decimation=2")
@@ -98,5 +103,6 @@ def _configure_bench(p: argparse.ArgumentParser) -> None:
 
 
 _bench.configure = _configure_bench  # type: ignore[attr-defined]
-command("bench", "Time a layer (dynamics, env, train, qp, deploy); the last line is JSON.")(
+command("bench", "Time a layer (dynamics, env, terms, train, qp, deploy); the last line is "
+        "JSON.")(
     _bench)
