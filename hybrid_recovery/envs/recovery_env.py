@@ -254,17 +254,14 @@ class RecoveryEnv(VecEnv):
         """Balance quantities from sensordata, for all envs or just the reset ``ids``."""
         rows = slice(None) if ids is None else ids
         sd = self.sims.bind("sensordata")[rows].copy()
-        mass = self.randomizer.mass[rows, 1:].sum(1)
-        if ids is not None:  # a new episode: no history for finite differences
-            lay = self.layout
-            vel = sd[:, lay.com_linvel]
-            self.prev_momentum[ids] = np.concatenate([mass[:, None] * vel, sd[:, lay.com_angmom]],
-                                                     1)
-            self.prev_com_vel[ids] = vel
         new = read_step_state(sd, self.xmat[rows], self.qpos[rows], self.qvel[rows],
-                              self.sims.bind("actuator_force")[rows].copy(), mass,
-                              self.prev_momentum[rows], self.prev_com_vel[rows], self._at, self.dt)
+                              self.sims.bind("actuator_force")[rows].copy(),
+                              self.randomizer.mass[rows, 1:].sum(1), self.prev_momentum[rows],
+                              self.prev_com_vel[rows], self._at, self.dt)
         self.prev_momentum[rows], self.prev_com_vel[rows] = new.pop("momentum"), new["com_vel"]
+        if ids is not None:  # a new episode: no history for the finite differences
+            for key in ("net_force", "net_torque", "com_acc"):
+                new[key] = np.zeros_like(new[key])
         if ids is None:
             self._state = new
         else:
