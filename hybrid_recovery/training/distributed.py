@@ -5,8 +5,9 @@ rsl-rl-lib's multi-GPU mode reads ``WORLD_SIZE``, ``RANK`` and ``LOCAL_RANK`` (s
 gradients of every update (and the observation normalisers' statistics). Each process
 simulates its own ``num_envs`` worlds, on ``cuda:<LOCAL_RANK>`` over NCCL or, with
 ``--device cpu``, on the CPU over gloo (the same collectives: several processes of one
-machine or of several). This module gives each its device, seed and backend, and decides
-that only rank 0 writes the run directory (settings, checkpoints, TensorBoard logs).
+machine or of several). This module gives each its device and seed, joins CPU processes
+over gloo, and decides that only rank 0 writes the run directory (settings, checkpoints,
+TensorBoard logs).
 """
 
 from __future__ import annotations
