@@ -36,8 +36,9 @@ def test_the_step_feeds_the_shared_observation_and_clips_before_the_targets():
 def test_the_step_is_written_once():
     """Outside their own modules, the observation builder and the action mapping are called
     only by :func:`policy_step`, by the batched environment (which gets its actions from
-    the training runner, not from a policy it runs) and by the training's teacher (which
-    builds the observations of recorded states, running no policy)."""
+    the training runner, not from a policy it runs), by the training's teacher (which
+    builds the observations of recorded states, running no policy) and by the terms bench
+    (which times the environment's terms)."""
     import ast
     from pathlib import Path
 
@@ -50,4 +51,5 @@ def test_the_step_is_written_once():
                 name = getattr(node.func, "id", getattr(node.func, "attr", None))
                 if name in ("actor_observation", "joint_targets", "clip_action"):
                     callers.add(path.relative_to(package).as_posix())
-    assert callers - own == {"policy/step.py", "envs/recovery_env.py", "training/teacher.py"}
+    assert callers - own == {"policy/step.py", "envs/recovery_env.py", "training/teacher.py",
+                             "bench/terms.py"}

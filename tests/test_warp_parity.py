@@ -86,7 +86,8 @@ def runs():
                 "qpos": env.qpos.astype(float), "qvel": env.qvel.astype(float),
                 "state": {k: np.asarray(v, dtype=float) for k, v in env._state.items()},
                 "policy": obs["policy"].numpy().copy(), "critic": obs["critic"].numpy().copy(),
-                "reward": reward.numpy().copy(), "parts": parts, "done": done.numpy().copy(),
+                "reward": reward.numpy().copy(), "done": done.numpy().copy(),
+                "parts": {k: np.asarray(v, dtype=float) for k, v in parts.items()},
                 "active": active.copy(), "normal": normal.astype(float),
                 "points": points.astype(float)})
     return envs, out
@@ -180,7 +181,8 @@ def test_the_step_terms_read_warp_memory_through_zero_copy_torch_views(runs):
         host = env.sims.bind(name)
         assert view.data_ptr() == host.ctypes.data and view.shape == host.shape, name
         np.testing.assert_array_equal(view.numpy(), host)
-    rest = (env.randomizer.mass[:, 1:].sum(1), env.prev_momentum, env.prev_com_vel)
+    rest = (env.randomizer.mass[:, 1:].sum(1), env._to_host(env.prev_momentum),
+            env._to_host(env.prev_com_vel))
     want = read_step_state(*(env.sims.bind(name) for name in names), *rest, env._at, env.dt)
     got = read_step_state(*views.values(), *(torch.from_numpy(x) for x in rest), env._at,
                           env.dt)
@@ -194,9 +196,9 @@ def test_the_step_terms_read_warp_memory_through_zero_copy_torch_views(runs):
         env.sims.tensor("not_a_field")
 
 
-def _batch_run(mirror: bool) -> dict[str, np.ndarray]:
+def _batch_run(host_copies: bool) -> dict[str, np.ndarray]:
     model, _ = build_scene()
-    sims = WarpBatch(model, 3, "cpu", expand=("body_mass",), mirror=mirror)
+    sims = WarpBatch(model, 3, "cpu", expand=("body_mass",), host_copies=host_copies)
     qpos, qvel, ctrl = sims.bind("qpos"), sims.bind("qvel"), sims.bind("ctrl")
     sensordata = sims.bind("sensordata")
     qpos[:, 2] = [1.2, 1.4, 1.6]
@@ -206,19 +208,25 @@ def _batch_run(mirror: bool) -> dict[str, np.ndarray]:
     sims.set_const()
     sims.forward()
     sims.step(nstep=3, stage=mujoco.mjtStage.mjSTAGE_VEL)
+    stepped = sims.tensor("qpos").numpy().copy()  # the device holds the state
+    sims.download()
     before = sensordata.copy()
     qpos[0, 0] = 0.3  # world 0 moves; worlds 1, 2 keep their derived fields
     sims.forward([0])
     return {"qpos": qpos.copy(), "qvel": qvel.copy(), "sensordata": sensordata.copy(),
-            "before": before, "subtreemass": sims.m.body_subtreemass.numpy()[:, 0].copy()}
+            "before": before, "stepped": stepped,
+            "device": sims.tensor("sensordata").numpy().copy(),
+            "subtreemass": sims.m.body_subtreemass.numpy()[:, 0].copy()}
 
 
 def test_host_copies_give_the_same_results_as_views():
-    """``mirror=True`` is the ``cuda`` device's path (host copies uploaded before and
-    downloaded after every call), run here on the CPU device: bit-identical results."""
-    views, mirrored = _batch_run(False), _batch_run(True)
+    """``host_copies=True`` is the ``cuda`` device's path (host copies synchronised by
+    rows around the calls on some worlds, nothing moved by a step), run here on the CPU
+    device: bit-identical results to zero-copy views."""
+    views, copies = _batch_run(False), _batch_run(True)
     for key in views:
-        np.testing.assert_array_equal(mirrored[key], views[key])
+        np.testing.assert_array_equal(copies[key], views[key], err_msg=key)
+    np.testing.assert_array_equal(copies["device"], copies["sensordata"])
     # forward([0]) changed world 0's sensors only
     assert not np.array_equal(views["sensordata"][0], views["before"][0])
     np.testing.assert_array_equal(views["sensordata"][1:], views["before"][1:])
@@ -315,27 +323,28 @@ def test_warp_batch_refuses_what_it_cannot_do_by_name():
 
 
 def test_the_whole_mdp_through_host_copies_is_bit_identical(monkeypatch):
-    """The ``cuda`` path's host copies under the whole MDP (resets with seating and
-    randomisation, delays, pushes, rewards), run on the CPU device: the same observations,
-    rewards and dones as through the zero-copy views, bit for bit."""
+    """The ``cuda`` path under the whole MDP — the steps on the device's arrays, the resets
+    (seating, randomisation, delays) on host copies synchronised by rows — run on the CPU
+    device: the same observations, rewards and dones as through zero-copy views, bit for
+    bit."""
     from hybrid_recovery.sim import warp_batch
 
-    class Mirrored(warp_batch.WarpBatch):
+    class Copied(warp_batch.WarpBatch):
         def __init__(self, *args, **kwargs):
-            super().__init__(*args, **kwargs, mirror=True)
+            super().__init__(*args, **kwargs, host_copies=True)
 
     results = []
-    for mirror in (False, True):
-        if mirror:
-            monkeypatch.setattr(warp_batch, "WarpBatch", Mirrored)
+    for copies in (False, True):
+        if copies:
+            monkeypatch.setattr(warp_batch, "WarpBatch", Copied)
         cfg = default_config()
         cfg.num_envs, cfg.num_threads, cfg.seed, cfg.backend = 4, 1, 2, "warp"
         cfg.curriculum.enabled = False
         cfg.episode_length_s = 0.06  # a timeout reset within the run
         env = RecoveryEnv(cfg)
-        assert env.sims.mirror is mirror
+        assert env.sims.host_copies is copies
         gen = torch.Generator().manual_seed(1)
-        steps = [env.step(torch.randn(4, 27, generator=gen) * 0.3) for _ in range(5)]
+        steps = [env.step(torch.randn(4, 27, generator=gen) * 0.3) for _ in range(8)]
         results.append(steps)
     for (obs_a, rew_a, done_a, _), (obs_b, rew_b, done_b, _) in zip(*results, strict=True):
         assert torch.equal(obs_a["critic"], obs_b["critic"])

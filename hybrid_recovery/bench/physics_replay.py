@@ -30,7 +30,8 @@ class PhysicsReplay:
         physics = env._physics
 
         def recording_physics(*args, **kwargs):
-            self.inputs.append((env.ctrl.copy(), env.xfrc.copy()))
+            sim = env._sim  # the step's arrays (numpy, or torch views of the device's state)
+            self.inputs.append((_copy(sim["ctrl"]), _copy(sim["xfrc_applied"])))
             return physics(*args, **kwargs)
 
         env._physics = recording_physics
@@ -53,7 +54,7 @@ class PhysicsReplay:
         self._restore(self._start)
         t = time.perf_counter()
         for ctrl, xfrc in self.inputs:
-            env.ctrl[:], env.xfrc[:] = ctrl, xfrc
+            env._sim["ctrl"][:], env._sim["xfrc_applied"][:] = ctrl, xfrc
             env.sims.step(nstep=env.cfg.decimation, stage=mujoco.mjtStage.mjSTAGE_VEL)
         elapsed = time.perf_counter() - t
         self.replayed = self._snapshot()
@@ -66,9 +67,22 @@ class PhysicsReplay:
         return len(self.inputs) * self.env.num_envs
 
     def _snapshot(self) -> dict[str, np.ndarray]:
-        return {f: self.env.sims.bind(f).copy() for f in _STATE_FIELDS}
+        """The state, from where it is held (MuJoCo Warp: the device)."""
+        sims = self.env.sims
+        if hasattr(sims, "tensor"):
+            return {f: sims.tensor(f).cpu().numpy().copy() for f in _STATE_FIELDS}
+        return {f: sims.bind(f).copy() for f in _STATE_FIELDS}
 
     def _restore(self, state: dict[str, np.ndarray]) -> None:
+        """Writes ``state`` to the host arrays, which the forward call takes to the
+        device, and computes its derived fields."""
+        sims = self.env.sims
+        if hasattr(sims, "download"):
+            sims.download()  # host copies: the other fields as the device holds them
         for f, value in state.items():
-            self.env.sims.bind(f)[:] = value
-        self.env.sims.forward()  # derived fields of the restored state
+            sims.bind(f)[:] = value
+        sims.forward()
+
+
+def _copy(array):
+    return array.clone() if hasattr(array, "clone") else array.copy()

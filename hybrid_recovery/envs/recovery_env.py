@@ -1,21 +1,26 @@
 """RecoveryEnv: N H1-2 robots in a persistent physics batch, the paper's MDP.
 
 One control step (50 Hz) = ``decimation`` physics substeps; within it each robot's PD
-targets follow its per-episode actuation delay. All MDP work is vectorised numpy over
-the batch; balance inputs are MuJoCo sensors (see :mod:`hybrid_recovery.sim.scene`)
-turned into balance quantities by :mod:`hybrid_recovery.dynamics`. The batch is CPU
-MuJoCo's ``mujoco.batch.Batch`` or MuJoCo Warp (``EnvConfig.backend``,
-:mod:`hybrid_recovery.sim.backend`); the MDP is the same code on both.
+targets follow its per-episode actuation delay. Balance inputs are MuJoCo sensors (see
+:mod:`hybrid_recovery.sim.scene`) turned into balance quantities by
+:mod:`hybrid_recovery.envs.step_state`. The batch is CPU MuJoCo's ``mujoco.batch.Batch``
+or MuJoCo Warp (``EnvConfig.backend``, :mod:`hybrid_recovery.sim.backend`); the MDP is
+the same code on both. Each control step's work is vectorised over the simulation's own
+arrays (:attr:`RecoveryEnv._sim`: numpy for CPU MuJoCo, torch views of MuJoCo Warp's on
+its device, where the state stays); the host keeps the bookkeeping (pushes, stuck-low,
+standing times, curricula, windows) and the resets, host code over the reset rows.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
+from typing import TYPE_CHECKING, Any, cast
 
 import mujoco
 import numpy as np
 import torch
+from array_api_compat import array_namespace
 from mujoco import batch as mjbatch
 from rsl_rl.env import VecEnv
 from tensordict import TensorDict
@@ -49,7 +54,14 @@ from hybrid_recovery.sim.initial_states import (
 )
 from hybrid_recovery.sim.scene import build_scene
 
+if TYPE_CHECKING:
+    from hybrid_recovery.sim.warp_batch import WarpBatch
+
 _HARD_POSES = ("sitting", "supine", "prone")
+
+HOST_STATE = ("mass", "gravity_b", "height", "height_vel", "torso_force")
+"""The step's quantities the host's bookkeeping reads (terminations, standing times,
+assistance), downloaded each step where the simulation is on a GPU."""
 
 
 class RecoveryEnv(VecEnv):
@@ -92,6 +104,8 @@ class RecoveryEnv(VecEnv):
         b = self.sims.bind
         self.qpos, self.qvel, self.ctrl = b("qpos"), b("qvel"), b("ctrl")
         self.xfrc, self.xmat = b("xfrc_applied"), b("xmat")
+        """The simulation's arrays as the resets (host code over rows) read and write them;
+        each control step reads and writes :attr:`_sim`."""
         self.history, self.actuator_delay = b("history"), self.sims.expand("actuator_delay")
         ns = int(m.actuator_history[0, 0])  # per actuator: 2 + ns times + ns values
         self._history_values = m.actuator_historyadr[:, None] + 2 + ns + np.arange(ns)
@@ -105,6 +119,8 @@ class RecoveryEnv(VecEnv):
         self.knees = np.array([mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name)
                                for name in constants.KNEE_BODIES])
         self.randomizer = Randomizer(m, self.sims, cfg.domain_rand)
+        self._sim = self._step_arrays()
+        self._xp = array_namespace(self._sim["qpos"])
         self.curriculum = Curriculum(cfg.curriculum)
         self.assist = Assist(cfg.assist, cfg.curriculum.window, cfg.curriculum.advance_success)
         self.pushes = Pushes(cfg.pushes, n, self.dt)
@@ -119,11 +135,11 @@ class RecoveryEnv(VecEnv):
         self.noise = noise_halfwidths(cfg.noise.ang_vel, cfg.noise.gravity, cfg.noise.joint_pos,
                                       cfg.noise.joint_vel)
         self.h_star = cfg.rewards.height_target or float(self._com_height(default_qpos(m)))
-        self.action = np.zeros((n, self.num_actions))
-        self.last_action = np.zeros_like(self.action)
+        self.action = self._to_sim(np.zeros((n, self.num_actions)))
+        self.last_action = self._xp.zeros_like(self.action)
         self.episode_length_buf = torch.zeros(n, dtype=torch.long)
-        self.prev_momentum = np.zeros((n, 6))
-        self.prev_com_vel = np.zeros((n, 3))
+        self.prev_momentum = self._to_sim(np.zeros((n, 6)))
+        self.prev_com_vel = self._to_sim(np.zeros((n, 3)))
         self.upright_time = np.zeros(n)
         self.succeeded = np.zeros(n, dtype=bool)
         self.up_time = np.zeros(n)
@@ -151,7 +167,10 @@ class RecoveryEnv(VecEnv):
                                  f"known: {list(POSES)}")
         self.episode_sums: dict[str, np.ndarray] = {}
         self.nan_resets = 0
-        self._state: dict[str, np.ndarray] = {}
+        self._state: dict[str, Any] = {}
+        """The step's quantities (:func:`read_step_state`), in :attr:`_sim`'s kind of array."""
+        self._host: dict[str, np.ndarray] = {}
+        """Those of :data:`HOST_STATE` as numpy arrays, for the host's bookkeeping."""
         groups = self.layout.group_slots
         self._at = StepIndices(
             self.layout, (groups["left_foot"], groups["right_foot"]),
@@ -173,30 +192,34 @@ class RecoveryEnv(VecEnv):
         is stepped with a_t = 0, then reset, counted in :attr:`nan_resets` and logged as
         ``termination/nan``; no NaN reaches an observation or a reward.
         """
-        raw = actions.detach().cpu().numpy()
-        bad_action = ~np.isfinite(raw).all(1)
+        xp, sim = self._xp, self._sim
+        raw = self._from_torch(actions)
+        bad = ~xp.all(xp.isfinite(raw), axis=1)
+        bad_action = self._to_host(bad)
         if bad_action.any():
-            raw = np.where(bad_action[:, None], 0.0, raw)
+            raw = xp.where(bad[:, None], 0.0, raw)
         self.last_action = self.action
         self.action = clip_action(raw)
-        lo_hi = self.randomizer.jnt_range[:, 1:1 + self.num_actions]
+        lo_hi = sim["jnt_range"][:, 1:1 + self.num_actions]
         # within this episode's (scaled) joint ranges, applied delay_steps substeps late
-        self.ctrl[:] = joint_targets(self.action, self.cfg.action_scale,
-                                     (lo_hi[..., 0], lo_hi[..., 1]))
-        self.xfrc[:, self.torso, :3] = self.pushes.force(self.upright_time, self.rng,
-                                                       self.curriculum.difficulty)
+        sim["ctrl"][:] = joint_targets(self.action, self.cfg.action_scale,
+                                       (lo_hi[..., 0], lo_hi[..., 1]))
+        push = self.pushes.force(self.upright_time, self.rng, self.curriculum.difficulty)
         if self.assist.active:
             helped = self.assist.assisted(self._pose_names)[self.start_pose]  # 7 names, not N
-            self.xfrc[:, self.torso, 2] += helped * self.assist.force_z(
-                self._state["mass"], self._state["gravity_b"], GRAVITY, self._state["height"])
+            h = self._host
+            push = push.copy()
+            push[:, 2] += helped * self.assist.force_z(h["mass"], h["gravity_b"], GRAVITY,
+                                                       h["height"])
+        sim["xfrc_applied"][:, self.torso, :3] = self._to_sim(push)
         failed = self._physics(bad_action)
         self.episode_length_buf += 1
         self._read_state()
-        s = self._state
+        h = self._host
         dones_by = {
-            "torso_contact": s["torso_force"] > self.cfg.torso_force_limit,
-            "stuck_low": self.stuck.update(s["height"], self.dt,
-                                           s["height"] < self.cfg.upright_height),
+            "torso_contact": h["torso_force"] > self.cfg.torso_force_limit,
+            "stuck_low": self.stuck.update(h["height"], self.dt,
+                                           h["height"] < self.cfg.upright_height),
             "nan": failed,
         }
         terminated = np.logical_or.reduce(list(dones_by.values()))
@@ -204,13 +227,14 @@ class RecoveryEnv(VecEnv):
         dones_by["timeout"] = time_out
         reward, parts = compute_rewards(self._reward_state(terminated), self.cfg.rewards,
                                         self.h_star, self.dt)
-        reward = np.where(failed, 0.0, reward)
-        for name, value in parts.items():
+        reward = xp.where(self._to_sim(failed), 0.0, reward)
+        values = self._to_host(xp.stack(list(parts.values()))) if parts else ()
+        for name, value in zip(parts, values, strict=True):
             self.episode_sums.setdefault(name, np.zeros(self.num_envs))
             self.episode_sums[name] += np.where(failed, 0.0, value)
-        self.upright_time = success_step(self.upright_time, s, self.dt)
+        self.upright_time = success_step(self.upright_time, h, self.dt)
         self.succeeded |= self.upright_time >= 1.0
-        self.up_time = success_step(self.up_time, s, self.dt, still=False)
+        self.up_time = success_step(self.up_time, h, self.dt, still=False)
         self.stood_up |= self.up_time >= 1.0
         self._count_starts(np.flatnonzero(self.stood_up & ~self._start_counted))
         self._count_windows(np.flatnonzero(self._window_outcome() & ~self._window_counted))
@@ -222,8 +246,7 @@ class RecoveryEnv(VecEnv):
             self._reset(ids)
             self._read_state(ids)
         self._obs = self._observations()
-        return (self._obs, torch.from_numpy(reward.astype(np.float32)),
-                torch.from_numpy(done), extras)
+        return self._obs, self._to_torch(reward), torch.from_numpy(done), extras
 
     # ------------------------------------------------------------------ physics
     def _physics(self, failed: np.ndarray) -> np.ndarray:
@@ -235,8 +258,9 @@ class RecoveryEnv(VecEnv):
             self.sims.step(nstep=self.cfg.decimation, stage=mujoco.mjtStage.mjSTAGE_VEL)
         except mjbatch.SimulationError as err:
             failed[np.asarray(err.ids)] = True
-        bad = ~np.isfinite(self.qpos).all(1) | ~np.isfinite(self.qvel).all(1)
-        failed |= bad | (np.abs(self.qvel) > 1e3).any(1)
+        xp, q, v = self._xp, self._sim["qpos"], self._sim["qvel"]
+        bad = ~xp.all(xp.isfinite(q), axis=1) | ~xp.all(xp.isfinite(v), axis=1)
+        failed |= self._to_host(bad | xp.any(xp.abs(v) > 1e3, axis=1))
         if failed.any():
             self.nan_resets += int(failed.sum())
             ids = np.flatnonzero(failed)
@@ -251,38 +275,83 @@ class RecoveryEnv(VecEnv):
         return float(data.subtree_com[1, 2])
 
     def _read_state(self, ids: np.ndarray | None = None) -> None:
-        """Balance quantities from sensordata, for all envs or just the reset ``ids``."""
-        rows = slice(None) if ids is None else ids
-        sd = self.sims.bind("sensordata")[rows].copy()
-        new = read_step_state(sd, self.xmat[rows], self.qpos[rows], self.qvel[rows],
-                              self.sims.bind("actuator_force")[rows].copy(),
-                              self.randomizer.mass[rows, 1:].sum(1), self.prev_momentum[rows],
-                              self.prev_com_vel[rows], self._at, self.dt)
-        self.prev_momentum[rows], self.prev_com_vel[rows] = new.pop("momentum"), new["com_vel"]
+        """The step's quantities from the simulation, for all envs or just the reset
+        ``ids``."""
+        xp, sim = self._xp, self._sim
+        rows = slice(None) if ids is None else self._rows(ids)
+        new = read_step_state(
+            xp.asarray(sim["sensordata"][rows], copy=True), sim["xmat"][rows], sim["qpos"][rows],
+            sim["qvel"][rows], xp.asarray(sim["actuator_force"][rows], copy=True),
+            xp.sum(sim["body_mass"][rows, 1:], axis=1), self.prev_momentum[rows],
+            self.prev_com_vel[rows], self._at, self.dt)
+        momentum = new.pop("momentum")
+        self.prev_momentum[rows] = xp.astype(momentum, self.prev_momentum.dtype)
+        self.prev_com_vel[rows] = xp.astype(new["com_vel"], self.prev_com_vel.dtype)
         if ids is not None:  # a new episode: no history for the finite differences
             for key in ("net_force", "net_torque", "com_acc"):
-                new[key] = np.zeros_like(new[key])
+                new[key] = xp.zeros_like(new[key])
         if ids is None:
             self._state = new
         else:
             for key, value in new.items():
-                self._state[key][ids] = value
+                self._state[key][rows] = value
+        self._host = {key: self._to_host(self._state[key]) for key in HOST_STATE}
 
-    def _reward_state(self, terminated: np.ndarray) -> RewardState[np.ndarray]:
-        return reward_state(self._state, self.randomizer.jnt_range[:, 1:1 + self.num_actions],
-                            self.action, self.last_action, terminated)
+    def _reward_state(self, terminated: np.ndarray) -> RewardState[Any]:
+        """The reward terms' inputs; ``terminated`` (N,) bool on the host."""
+        return reward_state(self._state, self._sim["jnt_range"][:, 1:1 + self.num_actions],
+                            self.action, self.last_action, self._to_sim(terminated))
 
     def _observations(self) -> TensorDict:
-        s = self._state
+        xp, s = self._xp, self._state
         clean = actor_observation(s["gyro"], s["quat"], s["q"], s["dq"], self.action)
-        noisy = clean + self.rng.uniform(-1.0, 1.0, clean.shape).astype(np.float32) * self.noise
+        noise = self.rng.uniform(-1.0, 1.0, clean.shape).astype(np.float32) * self.noise
+        noisy = clean + self._to_sim(noise)
         critic = clean
         if self.cfg.privileged_critic:
-            privileged = privileged_observation(self._state, self.qpos[:, :2])
-            critic = np.concatenate([clean, privileged], 1)
-        return TensorDict({"policy": torch.from_numpy(noisy),
-                           "critic": torch.from_numpy(critic.astype(np.float32))},
+            privileged = privileged_observation(s, self._sim["qpos"][:, :2])
+            critic = xp.concat([clean, xp.astype(privileged, xp.float32)], axis=1)
+        return TensorDict({"policy": self._to_torch(noisy), "critic": self._to_torch(critic)},
                           batch_size=[self.num_envs])
+
+    # ---------------------------------------------------------- the step's arrays
+    def _step_arrays(self) -> dict[str, Any]:
+        """The arrays each control step reads and writes: CPU MuJoCo's numpy arrays, or
+        torch views of MuJoCo Warp's (on its device, which holds the state)."""
+        names = ("qpos", "qvel", "ctrl", "xfrc_applied", "sensordata", "xmat", "actuator_force")
+        self._device: torch.device | None = None
+        """The simulation's torch device (None: CPU MuJoCo's numpy arrays)."""
+        if isinstance(self.sims, mjbatch.Batch):
+            arrays = {name: self.sims.bind(name) for name in names}
+            return arrays | {"jnt_range": self.randomizer.jnt_range,
+                             "body_mass": self.randomizer.mass}
+        warp = cast("WarpBatch", self.sims)
+        self._device = warp.torch_device
+        arrays = {name: warp.tensor(name) for name in names}
+        return arrays | {name: warp.model_tensor(name) for name in ("jnt_range", "body_mass")}
+
+    def _to_sim(self, value: np.ndarray) -> Any:
+        """A host array as one of :attr:`_sim`'s kind (on its device)."""
+        return value if self._device is None else torch.as_tensor(value, device=self._device)
+
+    def _to_host(self, value: Any) -> np.ndarray:
+        return value if isinstance(value, np.ndarray) else value.cpu().numpy()
+
+    def _from_torch(self, value: torch.Tensor) -> Any:
+        """The learner's actions (N, 27) as :attr:`_sim`'s kind of array, float64."""
+        value = value.detach()
+        return value.cpu().numpy() if self._device is None else \
+            value.to(self._device, torch.float64)
+
+    def _to_torch(self, value: Any) -> torch.Tensor:
+        """A returned tensor (rewards, observations): float32, where it was computed."""
+        if isinstance(value, np.ndarray):
+            return torch.from_numpy(value.astype(np.float32))
+        return value.to(torch.float32)
+
+    def _rows(self, ids: np.ndarray) -> Any:
+        """Row indices ``ids`` for :attr:`_sim`'s arrays."""
+        return ids if self._device is None else torch.from_numpy(np.asarray(ids)).to(self._device)
 
     # ------------------------------------------------------------------ resets
     def _sample_poses(self, count: int) -> np.ndarray:
@@ -347,8 +416,8 @@ class RecoveryEnv(VecEnv):
         history = self.history[ids]
         history[:, self._history_values] = start[:, :, None]  # hold the start pose
         self.history[ids] = history
-        self.action[ids] = 0.0
-        self.last_action[ids] = 0.0
+        self.action[self._rows(ids)] = 0.0
+        self.last_action[self._rows(ids)] = 0.0
         self.xfrc[ids] = 0.0
         self.sims.forward(ids)
         self.pushes.reset(ids, rng)
@@ -387,7 +456,7 @@ class RecoveryEnv(VecEnv):
         for pose in self.rises.poses:
             log[f"rise_level/{pose}"] = float(self.rises.level[pose])
             log[f"rise_rate/{pose}"] = self.rises.rate(pose)
-        log["episode/final_com_height"] = torch.from_numpy(self._state["height"][ids])
+        log["episode/final_com_height"] = torch.from_numpy(self._host["height"][ids])
         log["curriculum/assist_fraction"] = float(self.assist.fraction)
         log["curriculum/stage"] = float(self.curriculum.stage)
         log["curriculum/level"] = float(self.curriculum.level)

@@ -1,8 +1,10 @@
 """The physics backend of the batched environment: CPU MuJoCo's ``mujoco.batch.Batch`` or
 MuJoCo Warp (:class:`~hybrid_recovery.sim.warp_batch.WarpBatch`), behind one interface.
 
-Both hold N worlds of one model and give the environment live (N, …) numpy arrays of
-the simulation state and of per-world model values, so the MDP is written once.
+Both hold N worlds of one model and give the environment (N, …) numpy arrays of the
+simulation state and of per-world model values for its resets; MuJoCo Warp also gives
+torch views of its device arrays, which the control steps read and write. The MDP is
+written once.
 """
 
 from __future__ import annotations

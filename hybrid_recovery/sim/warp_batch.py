@@ -1,26 +1,23 @@
 """WarpBatch: N worlds of one model in MuJoCo Warp behind the ``mujoco.batch.Batch`` calls
 the recovery environment makes.
 
-The environment's MDP (observations, rewards, terminations, resets, pushes, domain
-randomisation, curriculum) runs over ``(N, …)`` arrays; this class gives it those arrays
-for MuJoCo Warp's state, so that the same code runs on either physics backend:
+The device arrays hold the state. The environment reads and writes them at every
+control step through zero-copy torch views (:meth:`tensor`, :meth:`model_tensor`); its
+resets, which are host code over rows, use numpy arrays (:meth:`bind`, :meth:`expand`):
 
-* on the ``cpu`` device, :meth:`bind` and :meth:`expand` return **zero-copy** numpy views
-  of the Warp arrays (float32, MuJoCo Warp's precision): a write by the environment is a
-  write to the simulation;
-* on a ``cuda`` device the arrays live in GPU memory. Each bound or expanded field then
-  has a host copy: before every call that runs kernels all of them are uploaded, after it
-  the bound ones are downloaded (``mirror=True``, a few MB per control step at 4096
-  worlds). The same mirror runs on the CPU device with ``mirror=True``, which is how it
-  is tested without a GPU;
-* on either device :meth:`tensor` returns a zero-copy torch view of a data field, which
-  the per-step terms (:mod:`hybrid_recovery.envs.step_state`, array API) read in place.
+* on the ``cpu`` device these are zero-copy views of the Warp arrays (float32, MuJoCo
+  Warp's precision): a write by the environment is a write to the simulation;
+* on a ``cuda`` device (or with ``host_copies=True``, which is how that path is tested
+  without a GPU) they are host copies, synchronised by rows: a ``reset``, ``forward`` or
+  ``set_const`` on some worlds uploads the host's rows of those worlds before its kernels
+  and downloads them after; a ``step`` moves nothing.
 
 Semantics follow ``Batch``: ``step(nstep, stage)`` runs ``nstep`` ``mj_step`` and then the
 stages up to ``stage`` at the new state (acceleration-stage sensors such as contact
 sensors keep the values of the last substep, as in C); a ``forward``, ``reset`` or
 ``set_const`` on some worlds leaves every bound field of the other worlds unchanged
-(MuJoCo Warp runs its kernels on all worlds: the other worlds' rows are put back).
+(MuJoCo Warp runs its kernels on all worlds: the other worlds' rows are put back, on the
+device).
 """
 
 from __future__ import annotations
@@ -28,15 +25,12 @@ from __future__ import annotations
 import copy
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
-from typing import TYPE_CHECKING
 
 import mujoco
 import mujoco_warp as mjw
 import numpy as np
+import torch
 import warp as wp
-
-if TYPE_CHECKING:
-    import torch
 
 DERIVED_FIELDS = ("body_subtreemass", "body_invweight0", "dof_invweight0", "actuator_acc0")
 """Model fields ``set_const`` derives from mass, inertia and armature: per world as soon
@@ -61,7 +55,8 @@ class WarpBatch:
             these), named as in ``MjModel``.
         nconmax: contacts allocated per world.
         njmax: constraint rows allocated per world.
-        mirror: keep host copies of the arrays (forced on a ``cuda`` device).
+        host_copies: host arrays are copies, synchronised by rows (forced on a ``cuda``
+            device; on the CPU device they are views of Warp's memory otherwise).
 
     Raises:
         ValueError: ``nsim`` < 1.
@@ -69,12 +64,13 @@ class WarpBatch:
 
     def __init__(self, model: mujoco.MjModel, nsim: int, device: str = "cpu",
                  expand: Sequence[str] = (), nconmax: int = 64, njmax: int = 384,
-                 mirror: bool = False) -> None:
+                 host_copies: bool = False) -> None:
         if nsim < 1:
             raise ValueError(f"WarpBatch needs nsim >= 1, got {nsim}")
         self.model, self.nsim = model, nsim
         self.device = wp.get_device(device)
-        self.mirror = mirror or not self.device.is_cpu
+        self.host_copies = host_copies or not self.device.is_cpu
+        self.torch_device = torch.device(wp.device_to_torch(self.device))
         expanded = tuple(dict.fromkeys(expand))
         sizes = {name: nsim for name in (*expanded, *DERIVED_FIELDS)}
         data = mujoco.MjData(model)
@@ -106,8 +102,8 @@ class WarpBatch:
         """A zero-copy torch view of MjData field ``name`` on the simulation's device,
         (N, …) in MuJoCo's layout (rotation matrices as 9 numbers), float32: what the
         MDP's array-API terms (:mod:`hybrid_recovery.envs.step_state`) read on a GPU with
-        no host copy. In mirror mode it holds the device's values: current after a call
-        that ran kernels, until the host copies are uploaded by the next one.
+        no host copy: the state itself (with host copies, the host's rows are current
+        only for the worlds of the last call that synchronised them).
 
         Raises:
             KeyError: a field MuJoCo Warp's data does not hold.
@@ -132,44 +128,70 @@ class WarpBatch:
 
     def _host(self, array: wp.array, matrix: bool) -> np.ndarray:
         host = array.numpy()  # a view on the CPU device, a copy on a GPU
-        if self.mirror and self.device.is_cpu:
+        if self.host_copies and self.device.is_cpu:
             host = host.copy()
         self._shapes[id(array)] = host.shape
         if matrix:
             host = host.reshape(*host.shape[:-2], 9)
         return host
 
-    def _push(self) -> None:
-        """Uploads the host copies (mirror mode) before kernels run."""
-        if not self.mirror:
-            return
-        for fields, owner in ((self._bound, self.d), (self._models, self.m)):
-            for name, host in fields.items():
-                target = getattr(owner, name)
-                target.assign(host.reshape(self._shapes[id(target)]))
+    def model_tensor(self, name: str) -> torch.Tensor:
+        """A zero-copy torch view of the per-world values of model field ``name`` (N, …),
+        float32, on the simulation's device.
 
-    def _pull(self) -> None:
-        """Downloads the bound fields (mirror mode) after kernels ran."""
-        if not self.mirror:
+        Raises:
+            ValueError: a field not named in ``expand`` at construction.
+        """
+        self.expand(name)  # checks the name
+        return wp.to_torch(getattr(self.m, name))
+
+    def download(self, ids: Sequence[int] | np.ndarray | None = None) -> None:
+        """The device's rows of worlds ``ids`` (None: all) to the host copies of the bound
+        fields, to read or write them on the host after a step (nothing to do on views)."""
+        self._download(torch.from_numpy(_ids(ids, self.nsim)).to(self.torch_device))
+
+    def _upload(self, rows: torch.Tensor) -> None:
+        """Host copies: the host's rows ``rows`` of every bound and expanded field to the
+        device (the caller wrote them)."""
+        if not self.host_copies:
             return
         for name, host in self._bound.items():
-            host[:] = getattr(self.d, name).numpy().reshape(host.shape)
+            self.tensor(name)[rows] = torch.from_numpy(host[rows.cpu().numpy()]).to(
+                self.torch_device)
+        for name, host in self._models.items():
+            self.model_tensor(name)[rows] = torch.from_numpy(host[rows.cpu().numpy()]).to(
+                self.torch_device)
+
+    def _download(self, rows: torch.Tensor) -> None:
+        """Host copies: the device's rows ``rows`` of every bound field to the host."""
+        if not self.host_copies:
+            return
+        for name, host in self._bound.items():
+            host[rows.cpu().numpy()] = self.tensor(name)[rows].cpu().numpy()
 
     @contextmanager
-    def _kernels(self, ids: np.ndarray | None = None) -> Iterator[None]:
-        """Runs kernels on the device; with ``ids``, the other worlds' bound rows are
-        left as they were."""
-        others = None if ids is None else np.setdiff1d(np.arange(self.nsim), ids)
-        kept = {} if others is None or not len(others) else \
-            {name: host[others].copy() for name, host in self._bound.items()}
-        self._push()
+    def _kernels(self, ids: np.ndarray | None = None, sync: bool = True) -> Iterator[None]:
+        """Runs kernels on the device, which holds the state. With ``sync`` the host's rows
+        of the worlds ``ids`` (None: all) are uploaded before and downloaded after, and
+        every other world's bound rows are put back as they were (on the device: the
+        kernels run on all worlds). Without it nothing moves (a step: the caller reads
+        and writes the device through :meth:`tensor`)."""
+        if not sync:
+            with wp.ScopedDevice(self.device):
+                yield
+            return
+        chosen = np.zeros(self.nsim, dtype=bool)
+        chosen[_ids(ids, self.nsim)] = True
+        rows = torch.from_numpy(np.flatnonzero(chosen)).to(self.torch_device)
+        others = torch.from_numpy(np.flatnonzero(~chosen)).to(self.torch_device)
+        self._upload(rows)
+        kept = {name: self.tensor(name)[others].clone() for name in self._bound} \
+            if len(others) else {}
         with wp.ScopedDevice(self.device):
             yield
-        self._pull()
-        for name, rows in kept.items():
-            self._bound[name][others] = rows
-        if kept and self.mirror:
-            self._push()
+        for name, saved in kept.items():
+            self.tensor(name)[others] = saved
+        self._download(rows)
 
     # ------------------------------------------------------------------ stages
     def _stages(self, stage: int) -> None:
@@ -194,7 +216,7 @@ class WarpBatch:
         """
         if ids is not None and len(np.unique(ids)) != self.nsim:
             raise ValueError("WarpBatch steps every world: ids must be None or all worlds")
-        with self._kernels():
+        with self._kernels(sync=False):
             for _ in range(nstep):
                 mjw.step(self.m, self.d)
             self._stages(int(stage))
@@ -242,6 +264,5 @@ class WarpBatch:
     def get_data(self, sim: int, data: mujoco.MjData | None = None) -> mujoco.MjData:
         """World ``sim``'s state and derived fields, as an ``MjData``."""
         out = mujoco.MjData(self.model) if data is None else data
-        self._push()
         mjw.get_data_into(out, self.get_model(sim), self.d, world_id=sim)
         return out
