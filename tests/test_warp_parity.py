@@ -236,6 +236,27 @@ def test_host_copies_give_the_same_results_as_views():
     assert total[2] == pytest.approx(total[0], rel=1e-6)
 
 
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a CUDA GPU")
+def test_on_a_gpu_a_captured_step_is_the_launched_one():
+    """The step as one CUDA graph (the default on a GPU) and kernel by kernel, with the
+    joint targets written through torch views between steps (the same stream orders
+    them): the same trajectories."""
+    model, _ = build_scene()
+    trajectories = []
+    for graphs in (False, True):
+        sims = WarpBatch(model, 64, "cuda", graphs=graphs)
+        sims.bind("qpos")[:, 2] += np.linspace(0.0, 0.5, 64, dtype=np.float32)
+        sims.forward()
+        ctrl, qpos = sims.tensor("ctrl"), sims.tensor("qpos")
+        states = []
+        for k in range(6):
+            ctrl[:] = 0.05 * k
+            sims.step(nstep=4, stage=mujoco.mjtStage.mjSTAGE_VEL)
+            states.append(qpos.cpu().numpy().copy())
+        trajectories.append(np.stack(states))
+    np.testing.assert_allclose(trajectories[1], trajectories[0], atol=1e-5, rtol=0)
+
+
 def test_plane_box_contacts_differ():
     """A known difference of the engines (MuJoCo 4.0 vs MuJoCo Warp 4.0.0): a box tilted
     and pressed into the floor so that corners of its upper half are below it gets at

@@ -23,6 +23,7 @@ device).
 from __future__ import annotations
 
 import copy
+import warnings
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 
@@ -57,6 +58,7 @@ class WarpBatch:
         njmax: constraint rows allocated per world.
         host_copies: host arrays are copies, synchronised by rows (forced on a ``cuda``
             device; on the CPU device they are views of Warp's memory otherwise).
+        graphs: on a ``cuda`` device, run each step as one captured CUDA graph.
 
     Raises:
         ValueError: ``nsim`` < 1.
@@ -64,13 +66,16 @@ class WarpBatch:
 
     def __init__(self, model: mujoco.MjModel, nsim: int, device: str = "cpu",
                  expand: Sequence[str] = (), nconmax: int = 64, njmax: int = 384,
-                 host_copies: bool = False) -> None:
+                 host_copies: bool = False, graphs: bool = True) -> None:
         if nsim < 1:
             raise ValueError(f"WarpBatch needs nsim >= 1, got {nsim}")
         self.model, self.nsim = model, nsim
         self.device = wp.get_device(device)
         self.host_copies = host_copies or not self.device.is_cpu
         self.torch_device = torch.device(wp.device_to_torch(self.device))
+        self._graphs: dict[tuple[int, int], wp.Graph | None] | None = \
+            None if not graphs else {}
+        """The step's CUDA graphs by (substeps, stage) (None: launched kernel by kernel)."""
         expanded = tuple(dict.fromkeys(expand))
         sizes = {name: nsim for name in (*expanded, *DERIVED_FIELDS)}
         data = mujoco.MjData(model)
@@ -127,7 +132,8 @@ class WarpBatch:
         return self._models[name]
 
     def _host(self, array: wp.array, matrix: bool) -> np.ndarray:
-        host = array.numpy()  # a view on the CPU device, a copy on a GPU
+        with self._launching():  # a view on the CPU device, a copy on a GPU
+            host = array.numpy()
         if self.host_copies and self.device.is_cpu:
             host = host.copy()
         self._shapes[id(array)] = host.shape
@@ -170,6 +176,17 @@ class WarpBatch:
             host[rows.cpu().numpy()] = self.tensor(name)[rows].cpu().numpy()
 
     @contextmanager
+    def _launching(self) -> Iterator[None]:
+        """Warp's launches on the device, on torch's current stream there: ordered after
+        the torch writes to the views (joint targets, pushes) and before the reads."""
+        with wp.ScopedDevice(self.device):
+            if self.device.is_cpu:
+                yield
+                return
+            with wp.ScopedStream(wp.stream_from_torch(self.torch_device)):
+                yield
+
+    @contextmanager
     def _kernels(self, ids: np.ndarray | None = None, sync: bool = True) -> Iterator[None]:
         """Runs kernels on the device, which holds the state. With ``sync`` the host's rows
         of the worlds ``ids`` (None: all) are uploaded before and downloaded after, and
@@ -177,7 +194,7 @@ class WarpBatch:
         kernels run on all worlds). Without it nothing moves (a step: the caller reads
         and writes the device through :meth:`tensor`)."""
         if not sync:
-            with wp.ScopedDevice(self.device):
+            with self._launching():
                 yield
             return
         chosen = np.zeros(self.nsim, dtype=bool)
@@ -187,7 +204,7 @@ class WarpBatch:
         self._upload(rows)
         kept = {name: self.tensor(name)[others].clone() for name in self._bound} \
             if len(others) else {}
-        with wp.ScopedDevice(self.device):
+        with self._launching():
             yield
         for name, saved in kept.items():
             self.tensor(name)[others] = saved
@@ -217,10 +234,37 @@ class WarpBatch:
         if ids is not None and len(np.unique(ids)) != self.nsim:
             raise ValueError("WarpBatch steps every world: ids must be None or all worlds")
         with self._kernels(sync=False):
-            for _ in range(nstep):
-                mjw.step(self.m, self.d)
-            self._stages(int(stage))
+            key = (nstep, int(stage))
+            if self.device.is_cpu or self._graphs is None:
+                self._substeps(*key)
+            else:
+                if key not in self._graphs:
+                    self._graphs[key] = self._capture(*key)
+                graph = self._graphs[key]
+                if graph is None:
+                    self._substeps(*key)
+                else:
+                    wp.capture_launch(graph)
         self._check_overflow()
+
+    def _substeps(self, nstep: int, stage: int) -> None:
+        for _ in range(nstep):
+            mjw.step(self.m, self.d)
+        self._stages(stage)
+
+    def _capture(self, nstep: int, stage: int) -> wp.Graph | None:
+        """The substeps and stages as one CUDA graph (MuJoCo Warp launches many kernels
+        per step; a graph launches them at once), or None where capture fails (then they
+        run launch by launch, with a warning)."""
+        try:
+            with wp.ScopedCapture(device=self.device,
+                                  stream=wp.stream_from_torch(self.torch_device)) as capture:
+                self._substeps(nstep, stage)
+        except Exception as err:  # noqa: BLE001  (any capture failure: run uncaptured)
+            warnings.warn(f"CUDA graph capture of the step failed, running uncaptured: {err}",
+                          stacklevel=3)
+            return None
+        return capture.graph
 
     def forward(self, ids: Sequence[int] | np.ndarray | None = None,
                 stage: int = mujoco.mjtStage.mjSTAGE_ACC) -> None:
@@ -246,8 +290,8 @@ class WarpBatch:
             mjw.set_const(self.m, self.d)
 
     def _check_overflow(self) -> None:
-        contacts = int(self.d.nacon.numpy()[0])
-        rows = int(self.d.nefc.numpy().max())
+        contacts = int(wp.to_torch(self.d.nacon)[0])  # on torch's stream, after the step
+        rows = int(wp.to_torch(self.d.nefc).max())
         if contacts > self.d.naconmax or rows > self.d.njmax:
             raise RuntimeError(
                 f"MuJoCo Warp ran out of room: {contacts} contacts for {self.d.naconmax}, "
@@ -264,5 +308,6 @@ class WarpBatch:
     def get_data(self, sim: int, data: mujoco.MjData | None = None) -> mujoco.MjData:
         """World ``sim``'s state and derived fields, as an ``MjData``."""
         out = mujoco.MjData(self.model) if data is None else data
-        mjw.get_data_into(out, self.get_model(sim), self.d, world_id=sim)
+        with self._launching():  # after the kernels on torch's stream
+            mjw.get_data_into(out, self.get_model(sim), self.d, world_id=sim)
         return out
