@@ -238,9 +238,9 @@ def test_host_copies_give_the_same_results_as_views():
 
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a CUDA GPU")
 def test_on_a_gpu_a_captured_step_is_the_launched_one():
-    """The step as one CUDA graph (the default on a GPU) and kernel by kernel, with the
+    """The calls as CUDA graphs (the default on a GPU) and kernel by kernel, with the
     joint targets written through torch views between steps (the same stream orders
-    them): the same trajectories."""
+    them) and a forward and a reset on some worlds: the same trajectories."""
     model, _ = build_scene()
     trajectories = []
     for graphs in (False, True):
@@ -253,6 +253,12 @@ def test_on_a_gpu_a_captured_step_is_the_launched_one():
             ctrl[:] = 0.05 * k
             sims.step(nstep=4, stage=mujoco.mjtStage.mjSTAGE_VEL)
             states.append(qpos.cpu().numpy().copy())
+            if k == 2:  # a host write, a forward and a reset on some worlds (captured too)
+                sims.download([3])
+                sims.bind("qpos")[3, 2] += 0.1
+                sims.forward([3])
+                sims.reset([0, 5])
+                states.append(qpos.cpu().numpy().copy())
         trajectories.append(np.stack(states))
     np.testing.assert_allclose(trajectories[1], trajectories[0], atol=1e-5, rtol=0)
 

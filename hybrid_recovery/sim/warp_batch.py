@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import copy
 import warnings
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 
 import mujoco
@@ -58,7 +58,8 @@ class WarpBatch:
         njmax: constraint rows allocated per world.
         host_copies: host arrays are copies, synchronised by rows (forced on a ``cuda``
             device; on the CPU device they are views of Warp's memory otherwise).
-        graphs: on a ``cuda`` device, run each step as one captured CUDA graph.
+        graphs: on a ``cuda`` device, run each call (step, forward, reset, set_const) as
+            one captured CUDA graph.
 
     Raises:
         ValueError: ``nsim`` < 1.
@@ -73,9 +74,12 @@ class WarpBatch:
         self.device = wp.get_device(device)
         self.host_copies = host_copies or not self.device.is_cpu
         self.torch_device = torch.device(wp.device_to_torch(self.device))
-        self._graphs: dict[tuple[int, int], wp.Graph | None] | None = \
+        self._graphs: dict[tuple, wp.Graph | None] | None = \
             None if not graphs else {}
-        """The step's CUDA graphs by (substeps, stage) (None: launched kernel by kernel)."""
+        """Captured CUDA graphs of the calls, by call and arguments (None: launched kernel by
+        kernel)."""
+        self._reset_mask = wp.zeros(nsim, dtype=bool, device=self.device)
+        """The worlds a reset resets (the graph's input)."""
         expanded = tuple(dict.fromkeys(expand))
         sizes = {name: nsim for name in (*expanded, *DERIVED_FIELDS)}
         data = mujoco.MjData(model)
@@ -234,17 +238,7 @@ class WarpBatch:
         if ids is not None and len(np.unique(ids)) != self.nsim:
             raise ValueError("WarpBatch steps every world: ids must be None or all worlds")
         with self._kernels(sync=False):
-            key = (nstep, int(stage))
-            if self.device.is_cpu or self._graphs is None:
-                self._substeps(*key)
-            else:
-                if key not in self._graphs:
-                    self._graphs[key] = self._capture(*key)
-                graph = self._graphs[key]
-                if graph is None:
-                    self._substeps(*key)
-                else:
-                    wp.capture_launch(graph)
+            self._launch(("step", nstep, int(stage)), lambda: self._substeps(nstep, int(stage)))
         self._check_overflow()
 
     def _substeps(self, nstep: int, stage: int) -> None:
@@ -252,17 +246,29 @@ class WarpBatch:
             mjw.step(self.m, self.d)
         self._stages(stage)
 
-    def _capture(self, nstep: int, stage: int) -> wp.Graph | None:
-        """The substeps and stages as one CUDA graph (MuJoCo Warp launches many kernels
-        per step; a graph launches them at once), or None where capture fails (then they
-        run launch by launch, with a warning)."""
+    def _launch(self, key: tuple, kernels: Callable[[], None]) -> None:
+        """Runs ``kernels``: on a GPU (``graphs``) as one CUDA graph captured at its first
+        use under ``key`` (MuJoCo Warp launches many kernels per call; a graph launches
+        them at once); where capture fails, launch by launch, with a warning."""
+        if self.device.is_cpu or self._graphs is None:
+            kernels()
+            return
+        if key not in self._graphs:
+            self._graphs[key] = self._capture(key, kernels)
+        graph = self._graphs[key]
+        if graph is None:
+            kernels()
+        else:
+            wp.capture_launch(graph)
+
+    def _capture(self, key: tuple, kernels: Callable[[], None]) -> wp.Graph | None:
         try:
             with wp.ScopedCapture(device=self.device,
                                   stream=wp.stream_from_torch(self.torch_device)) as capture:
-                self._substeps(nstep, stage)
+                kernels()
         except Exception as err:  # noqa: BLE001  (any capture failure: run uncaptured)
-            warnings.warn(f"CUDA graph capture of the step failed, running uncaptured: {err}",
-                          stacklevel=3)
+            warnings.warn(f"CUDA graph capture of {key} failed, running uncaptured: {err}",
+                          stacklevel=4)
             return None
         return capture.graph
 
@@ -270,7 +276,7 @@ class WarpBatch:
                 stage: int = mujoco.mjtStage.mjSTAGE_ACC) -> None:
         """The forward stages up to ``stage`` for worlds ``ids`` (``Batch.forward``)."""
         with self._kernels(None if ids is None else _ids(ids, self.nsim)):
-            self._stages(int(stage))
+            self._launch(("forward", int(stage)), lambda: self._stages(int(stage)))
 
     def reset(self, ids: Sequence[int] | np.ndarray | None = None,
               stage: int = mujoco.mjtStage.mjSTAGE_ACC) -> None:
@@ -280,14 +286,19 @@ class WarpBatch:
         mask = np.zeros(self.nsim, dtype=bool)
         mask[rows] = True
         with self._kernels(None if ids is None else rows):
-            mjw.reset_data(self.m, self.d, reset=wp.array(mask, dtype=bool))
-            self._stages(int(stage))
+            wp.to_torch(self._reset_mask)[:] = torch.from_numpy(mask).to(self.torch_device)
+
+            def kernels() -> None:
+                mjw.reset_data(self.m, self.d, reset=self._reset_mask)
+                self._stages(int(stage))
+
+            self._launch(("reset", int(stage)), kernels)
 
     def set_const(self, ids: Sequence[int] | np.ndarray | None = None) -> None:
         """Recomputes the constants derived from the per-world model fields
         (``mj_setConst``); runs on every world, leaving the others' values as they were."""
         with self._kernels(None if ids is None else _ids(ids, self.nsim)):
-            mjw.set_const(self.m, self.d)
+            self._launch(("set_const",), lambda: mjw.set_const(self.m, self.d))
 
     def _check_overflow(self) -> None:
         contacts = int(wp.to_torch(self.d.nacon)[0])  # on torch's stream, after the step
