@@ -371,9 +371,16 @@ def test_the_whole_mdp_through_host_copies_is_bit_identical(monkeypatch):
         env = RecoveryEnv(cfg)
         assert env.sims.host_copies is copies
         gen = torch.Generator().manual_seed(1)
-        steps = [env.step(torch.randn(4, 27, generator=gen) * 0.3) for _ in range(8)]
+        steps = []
+        for _ in range(8):
+            obs, reward, done, extras = env.step(torch.randn(4, 27, generator=gen) * 0.3)
+            steps.append((obs, reward, done, env.applied_push(1)))
+            if not copies:  # the host's arrays are the device's
+                np.testing.assert_array_equal(steps[-1][3], env.xfrc[1, env.torso, :3])
         results.append(steps)
-    for (obs_a, rew_a, done_a, _), (obs_b, rew_b, done_b, _) in zip(*results, strict=True):
+    for (obs_a, rew_a, done_a, push_a), (obs_b, rew_b, done_b, push_b) in zip(*results,
+                                                                               strict=True):
+        np.testing.assert_array_equal(push_a, push_b)
         assert torch.equal(obs_a["critic"], obs_b["critic"])
         assert torch.equal(obs_a["policy"], obs_b["policy"])
         assert torch.equal(rew_a, rew_b) and torch.equal(done_a, done_b)

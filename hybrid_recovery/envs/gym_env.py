@@ -145,7 +145,7 @@ class RecoveryGymEnv(gym.Env):
         if self._renderer is None:
             self._renderer = BalanceRenderer(env.cfg.model_path)
         model, data = env.sims.get_model(0), env.sims.get_data(0)
-        overlay = balance_overlay(model, data, env.xfrc[0, env.torso, :3])
+        overlay = balance_overlay(model, data, env.applied_push(0))
         return self._renderer.frame(data.qpos, overlay, env.dt)
 
     def close(self) -> None:

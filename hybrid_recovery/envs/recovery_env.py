@@ -185,6 +185,11 @@ class RecoveryEnv(VecEnv):
     def get_observations(self) -> TensorDict:
         return self._obs
 
+    def applied_push(self, index: int) -> np.ndarray:
+        """The world force on env ``index``'s torso this step (push and assistance), (3,)
+        [N]."""
+        return self._to_host(self._sim["xfrc_applied"][index, self.torso, :3]).copy()
+
     def step(self, actions: torch.Tensor) -> tuple[TensorDict, torch.Tensor, torch.Tensor, dict]:
         """One control step of every env; finished envs are reset inside it.
 

@@ -115,7 +115,7 @@ def play(out: str | Path, pose: str = "standing", seconds: float = 5.0,
             if k % every == 0:
                 env.sims.get_model(0, sim_model)
                 env.sims.get_data(0, sim_data)
-                overlay = balance_overlay(sim_model, sim_data, env.xfrc[0, env.torso, :3])
+                overlay = balance_overlay(sim_model, sim_data, env.applied_push(0))
                 frame = renderer.frame(sim_data.qpos, overlay, every * env.dt)
                 writer.append_data(frame)  # type: ignore[attr-defined]
                 frames += 1
