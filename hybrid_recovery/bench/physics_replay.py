@@ -30,8 +30,9 @@ class PhysicsReplay:
         physics = env._physics
 
         def recording_physics(*args, **kwargs):
-            sim = env._sim  # the step's arrays (numpy, or torch views of the device's state)
-            self.inputs.append((_copy(sim["ctrl"]), _copy(sim["xfrc_applied"])))
+            sim, xp = env._sim, env._xp  # the step's arrays (numpy, or the device's views)
+            self.inputs.append((xp.asarray(sim["ctrl"], copy=True),
+                                xp.asarray(sim["xfrc_applied"], copy=True)))
             return physics(*args, **kwargs)
 
         env._physics = recording_physics
@@ -82,7 +83,3 @@ class PhysicsReplay:
         for f, value in state.items():
             sims.bind(f)[:] = value
         sims.forward()
-
-
-def _copy(array):
-    return array.clone() if hasattr(array, "clone") else array.copy()

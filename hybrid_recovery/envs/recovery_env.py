@@ -119,6 +119,9 @@ class RecoveryEnv(VecEnv):
         self.knees = np.array([mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name)
                                for name in constants.KNEE_BODIES])
         self.randomizer = Randomizer(m, self.sims, cfg.domain_rand)
+        self._device: torch.device | None = None if isinstance(self.sims, mjbatch.Batch) \
+            else cast("WarpBatch", self.sims).torch_device
+        """The simulation's torch device (None: CPU MuJoCo's numpy arrays)."""
         self._sim = self._step_arrays()
         self._xp = array_namespace(self._sim["qpos"])
         self.curriculum = Curriculum(cfg.curriculum)
@@ -324,14 +327,12 @@ class RecoveryEnv(VecEnv):
         """The arrays each control step reads and writes: CPU MuJoCo's numpy arrays, or
         torch views of MuJoCo Warp's (on its device, which holds the state)."""
         names = ("qpos", "qvel", "ctrl", "xfrc_applied", "sensordata", "xmat", "actuator_force")
-        self._device: torch.device | None = None
-        """The simulation's torch device (None: CPU MuJoCo's numpy arrays)."""
-        if isinstance(self.sims, mjbatch.Batch):
+        arrays: dict[str, Any]
+        if self._device is None:
             arrays = {name: self.sims.bind(name) for name in names}
             return arrays | {"jnt_range": self.randomizer.jnt_range,
                              "body_mass": self.randomizer.mass}
         warp = cast("WarpBatch", self.sims)
-        self._device = warp.torch_device
         arrays = {name: warp.tensor(name) for name in names}
         return arrays | {name: warp.model_tensor(name) for name in ("jnt_range", "body_mass")}
 

@@ -90,8 +90,6 @@ class WarpBatch:
         self.expanded = expanded
         self._bound: dict[str, np.ndarray] = {}
         self._models: dict[str, np.ndarray] = {}
-        self._shapes: dict[int, tuple[int, ...]] = {}
-        """Each host array's shape in Warp's layout (matrices 3×3), by Warp array id."""
 
     # ------------------------------------------------------------------ arrays
     def bind(self, name: str) -> np.ndarray:
@@ -140,7 +138,6 @@ class WarpBatch:
             host = array.numpy()
         if self.host_copies and self.device.is_cpu:
             host = host.copy()
-        self._shapes[id(array)] = host.shape
         if matrix:
             host = host.reshape(*host.shape[:-2], 9)
         return host
@@ -158,26 +155,26 @@ class WarpBatch:
     def download(self, ids: Sequence[int] | np.ndarray | None = None) -> None:
         """The device's rows of worlds ``ids`` (None: all) to the host copies of the bound
         fields, to read or write them on the host after a step (nothing to do on views)."""
-        self._download(torch.from_numpy(_ids(ids, self.nsim)).to(self.torch_device))
+        self._download(_ids(ids, self.nsim))
 
-    def _upload(self, rows: torch.Tensor) -> None:
+    def _upload(self, rows: np.ndarray) -> None:
         """Host copies: the host's rows ``rows`` of every bound and expanded field to the
         device (the caller wrote them)."""
         if not self.host_copies:
             return
-        for name, host in self._bound.items():
-            self.tensor(name)[rows] = torch.from_numpy(host[rows.cpu().numpy()]).to(
-                self.torch_device)
-        for name, host in self._models.items():
-            self.model_tensor(name)[rows] = torch.from_numpy(host[rows.cpu().numpy()]).to(
-                self.torch_device)
+        index = torch.from_numpy(rows).to(self.torch_device)
+        views = [(self.tensor(name), host) for name, host in self._bound.items()]
+        views += [(self.model_tensor(name), host) for name, host in self._models.items()]
+        for view, host in views:
+            view[index] = torch.from_numpy(host[rows]).to(self.torch_device)
 
-    def _download(self, rows: torch.Tensor) -> None:
+    def _download(self, rows: np.ndarray) -> None:
         """Host copies: the device's rows ``rows`` of every bound field to the host."""
         if not self.host_copies:
             return
+        index = torch.from_numpy(rows).to(self.torch_device)
         for name, host in self._bound.items():
-            host[rows.cpu().numpy()] = self.tensor(name)[rows].cpu().numpy()
+            host[rows] = self.tensor(name)[index].cpu().numpy()
 
     @contextmanager
     def _launching(self) -> Iterator[None]:
@@ -203,7 +200,7 @@ class WarpBatch:
             return
         chosen = np.zeros(self.nsim, dtype=bool)
         chosen[_ids(ids, self.nsim)] = True
-        rows = torch.from_numpy(np.flatnonzero(chosen)).to(self.torch_device)
+        rows = np.flatnonzero(chosen)
         others = torch.from_numpy(np.flatnonzero(~chosen)).to(self.torch_device)
         self._upload(rows)
         kept = {name: self.tensor(name)[others].clone() for name in self._bound} \
