@@ -32,6 +32,7 @@ import mujoco
 import numpy as np
 import pytest
 import torch
+from torch.utils._python_dispatch import TorchDispatchMode
 
 pytest.importorskip("mujoco_warp", reason="MuJoCo Warp not installed (the 'warp' extra)")
 
@@ -347,6 +348,95 @@ def test_warp_batch_refuses_what_it_cannot_do_by_name():
     with pytest.raises(ValueError) as err:
         sims.step([1])
     assert str(err.value) == "WarpBatch steps every world: ids must be None or all worlds"
+
+
+class _Transfers(TorchDispatchMode):
+    """Counts what would cross between a GPU and the host: copies to the host
+    (``Tensor.cpu``), copies to the device (``Tensor.to`` or ``torch.as_tensor`` with a
+    device) and scalar reads of a tensor (``int``, ``bool``, ``item``: the dispatcher's
+    ``_local_scalar_dense``). On the CPU device the copies are no-ops, but the calls are
+    the ones a GPU would make."""
+
+    def __init__(self, monkeypatch: pytest.MonkeyPatch) -> None:
+        super().__init__()
+        self.counts = {"to_host": 0, "to_device": 0, "scalar": 0}
+        cpu, to, as_tensor = torch.Tensor.cpu, torch.Tensor.to, torch.as_tensor
+
+        def counted_cpu(tensor, *args, **kwargs):
+            self.counts["to_host"] += 1
+            return cpu(tensor, *args, **kwargs)
+
+        def counted_to(tensor, *args, **kwargs):
+            if "device" in kwargs or any(isinstance(a, str | torch.device) for a in args):
+                self.counts["to_device"] += 1
+            return to(tensor, *args, **kwargs)
+
+        def counted_as_tensor(*args, **kwargs):
+            if "device" in kwargs:
+                self.counts["to_device"] += 1
+            return as_tensor(*args, **kwargs)
+
+        monkeypatch.setattr(torch.Tensor, "cpu", counted_cpu)
+        monkeypatch.setattr(torch.Tensor, "to", counted_to)
+        monkeypatch.setattr(torch, "as_tensor", counted_as_tensor)
+
+    def __torch_dispatch__(self, func, types, args=(), kwargs=None):
+        if func.overloadpacket is torch.ops.aten._local_scalar_dense:
+            self.counts["scalar"] += 1
+        return func(*args, **(kwargs or {}))
+
+
+def test_a_row_sync_moves_each_dtype_once(monkeypatch):
+    """With host copies (a GPU's path), a ``forward`` of some worlds moves their rows of
+    every bound and expanded field (float32) as one array each way, with one transfer of
+    the indices: 3 transfers, however many fields are bound."""
+    model, _ = build_scene()
+    sims = WarpBatch(model, 4, "cpu", expand=("body_mass", "geom_friction"),
+                     host_copies=True)
+    for name in ("qpos", "qvel", "ctrl", "xfrc_applied", "xmat", "sensordata", "history"):
+        sims.bind(name)
+    sims.expand("body_mass")
+    sims.expand("geom_friction")
+    sims.forward()
+    transfers = _Transfers(monkeypatch)
+    with transfers:
+        sims.forward([1, 3])
+    assert transfers.counts == {"to_host": 1, "to_device": 2, "scalar": 0}
+
+
+def test_a_control_step_reads_the_device_seven_times(monkeypatch):
+    """The env's control step on device arrays (host copies on the CPU device): without a
+    reset it reads the device 7 times — the NaN flags of actions and states together,
+    the solver's overflow counts, the host's bookkeeping quantities as one array, the
+    reward terms, and three scalars (the active contacts of the two hulls, the capture
+    point's height check) — and a reset adds a fixed number, not one per field."""
+    cfg = default_config()
+    cfg.num_envs, cfg.num_threads, cfg.seed, cfg.backend = 4, 1, 2, "warp"
+    cfg.curriculum.enabled = False
+
+    class Copied(WarpBatch):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs, host_copies=True)
+
+    monkeypatch.setattr(recovery_env_module, "physics_batch",
+                        lambda model, n, *args, expand=(), **kwargs:
+                        Copied(model, n, "cpu", expand=expand))
+    env = RecoveryEnv(cfg)
+    actions = torch.zeros(4, 27)
+    env.step(actions)
+    transfers = _Transfers(monkeypatch)
+    with transfers:
+        _, _, done, _ = env.step(actions)
+    assert not done.any()
+    assert transfers.counts["to_host"] + transfers.counts["scalar"] == 7
+    env.episode_length_buf[:2] = env.max_episode_length  # two timeouts at the next step
+    with _Transfers(monkeypatch) as resetting:
+        _, _, done, _ = env.step(actions)
+    assert done.tolist() == [True, True, False, False]
+    reads = resetting.counts["to_host"] + resetting.counts["scalar"]
+    # the reset: reset, seating, set_const and forward each read their rows once; the
+    # new episodes' state is read again (the host quantities and the scalars above)
+    assert reads == 7 + 4 + 4, resetting.counts
 
 
 def test_the_whole_mdp_through_host_copies_is_bit_identical(monkeypatch):

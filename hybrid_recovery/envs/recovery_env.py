@@ -203,8 +203,7 @@ class RecoveryEnv(VecEnv):
         xp, sim = self._xp, self._sim
         raw = self._from_torch(actions)
         bad = ~xp.all(xp.isfinite(raw), axis=1)
-        bad_action = self._to_host(bad)
-        if bad_action.any():
+        if self._device is not None or bad.any():  # on a device: no read before the physics
             raw = xp.where(bad[:, None], 0.0, raw)
         self.last_action = self.action
         self.action = clip_action(raw)
@@ -220,7 +219,7 @@ class RecoveryEnv(VecEnv):
             push[:, 2] += helped * self.assist.force_z(h["mass"], h["gravity_b"], GRAVITY,
                                                        h["height"])
         sim["xfrc_applied"][:, self.torso, :3] = self._to_sim(push)
-        failed = self._physics(bad_action)
+        failed = self._physics(bad)
         self.episode_length_buf += 1
         self._read_state()
         h = self._host
@@ -257,18 +256,19 @@ class RecoveryEnv(VecEnv):
         return self._obs, self._to_torch(reward), torch.from_numpy(done), extras
 
     # ------------------------------------------------------------------ physics
-    def _physics(self, failed: np.ndarray) -> np.ndarray:
+    def _physics(self, bad_action: Any) -> np.ndarray:
         """Steps ``decimation`` substeps (the actuators apply the delayed targets); resets
-        and returns the failed envs: ``failed`` (N,) bool on entry (a non-finite action),
-        and those whose simulation failed or diverged."""
-        failed = failed.copy()
+        and returns the failed envs (N,) bool: those with a non-finite action
+        (``bad_action``, :attr:`_sim`'s kind) and those whose simulation failed or
+        diverged (one read from the device for both)."""
+        failed = np.zeros(self.num_envs, dtype=bool)
         try:
             self.sims.step(nstep=self.cfg.decimation, stage=mujoco.mjtStage.mjSTAGE_VEL)
         except mjbatch.SimulationError as err:
             failed[np.asarray(err.ids)] = True
         xp, q, v = self._xp, self._sim["qpos"], self._sim["qvel"]
         bad = ~xp.all(xp.isfinite(q), axis=1) | ~xp.all(xp.isfinite(v), axis=1)
-        failed |= self._to_host(bad | xp.any(xp.abs(v) > 1e3, axis=1))
+        failed |= self._to_host(bad_action | bad | xp.any(xp.abs(v) > 1e3, axis=1))
         if failed.any():
             self.nan_resets += int(failed.sum())
             ids = np.flatnonzero(failed)
@@ -303,7 +303,22 @@ class RecoveryEnv(VecEnv):
         else:
             for key, value in new.items():
                 self._state[key][rows] = value
-        self._host = {key: self._to_host(self._state[key]) for key in HOST_STATE}
+        self._host = self._host_state()
+
+    def _host_state(self) -> dict[str, np.ndarray]:
+        """:data:`HOST_STATE` as numpy arrays: from a device in one transfer (as columns of
+        one array, in the widest of their dtypes)."""
+        values = [self._state[key] for key in HOST_STATE]
+        if self._device is None:
+            return dict(zip(HOST_STATE, values, strict=True))
+        packed = torch.cat([value.reshape(self.num_envs, -1) for value in values],
+                           dim=1).cpu().numpy()
+        host, start = {}, 0
+        for key, value in zip(HOST_STATE, values, strict=True):
+            width = value[0].numel()
+            host[key] = packed[:, start:start + width].reshape(value.shape)
+            start += width
+        return host
 
     def _reward_state(self, terminated: np.ndarray) -> RewardState[Any]:
         """The reward terms' inputs; ``terminated`` (N,) bool on the host."""

@@ -45,6 +45,15 @@ def _ids(ids: Sequence[int] | np.ndarray | None, nsim: int) -> np.ndarray:
     return np.arange(nsim) if ids is None else np.asarray(ids, dtype=int).reshape(-1)
 
 
+def _by_dtype(pairs: list[tuple[torch.Tensor, np.ndarray]]
+              ) -> list[list[tuple[torch.Tensor, np.ndarray]]]:
+    """(device view, host copy) pairs grouped by dtype: each group moves as one array."""
+    groups: dict[torch.dtype, list[tuple[torch.Tensor, np.ndarray]]] = {}
+    for view, host in pairs:
+        groups.setdefault(view.dtype, []).append((view, host))
+    return list(groups.values())
+
+
 class WarpBatch:
     """``nsim`` worlds of ``model`` in MuJoCo Warp on ``device``.
 
@@ -90,6 +99,10 @@ class WarpBatch:
         self.expanded = expanded
         self._bound: dict[str, np.ndarray] = {}
         self._models: dict[str, np.ndarray] = {}
+        self._views: dict[str, torch.Tensor] = {}
+        self._model_views: dict[str, torch.Tensor] = {}
+        """Zero-copy torch views of the data and model arrays (which MuJoCo Warp keeps
+        for the batch's life)."""
 
     # ------------------------------------------------------------------ arrays
     def bind(self, name: str) -> np.ndarray:
@@ -115,10 +128,13 @@ class WarpBatch:
         Raises:
             KeyError: a field MuJoCo Warp's data does not hold.
         """
-        if not hasattr(self.d, name):
-            raise KeyError(f"MuJoCo Warp data has no field '{name}'")
-        view = wp.to_torch(getattr(self.d, name))
-        return view.reshape(*view.shape[:-2], 9) if name in _MATRIX_FIELDS else view
+        if name not in self._views:
+            if not hasattr(self.d, name):
+                raise KeyError(f"MuJoCo Warp data has no field '{name}'")
+            view = wp.to_torch(getattr(self.d, name))
+            self._views[name] = view.reshape(*view.shape[:-2], 9) \
+                if name in _MATRIX_FIELDS else view
+        return self._views[name]
 
     def expand(self, name: str) -> np.ndarray:
         """The live (N, …) per-world values of model field ``name``, float32.
@@ -150,31 +166,48 @@ class WarpBatch:
             ValueError: a field not named in ``expand`` at construction.
         """
         self.expand(name)  # checks the name
-        return wp.to_torch(getattr(self.m, name))
+        if name not in self._model_views:
+            self._model_views[name] = wp.to_torch(getattr(self.m, name))
+        return self._model_views[name]
 
     def download(self, ids: Sequence[int] | np.ndarray | None = None) -> None:
         """The device's rows of worlds ``ids`` (None: all) to the host copies of the bound
         fields, to read or write them on the host after a step (nothing to do on views)."""
-        self._download(_ids(ids, self.nsim))
+        rows = _ids(ids, self.nsim)
+        self._download(rows, torch.from_numpy(rows).to(self.torch_device))
 
-    def _upload(self, rows: np.ndarray) -> None:
+    def _upload(self, rows: np.ndarray, index: torch.Tensor) -> None:
         """Host copies: the host's rows ``rows`` of every bound and expanded field to the
-        device (the caller wrote them)."""
+        device (the caller wrote them), in one transfer per dtype; ``index``: ``rows`` on
+        the device."""
         if not self.host_copies:
             return
-        index = torch.from_numpy(rows).to(self.torch_device)
-        views = [(self.tensor(name), host) for name, host in self._bound.items()]
-        views += [(self.model_tensor(name), host) for name, host in self._models.items()]
-        for view, host in views:
-            view[index] = torch.from_numpy(host[rows]).to(self.torch_device)
+        pairs = [(self.tensor(name), host) for name, host in self._bound.items()]
+        pairs += [(self.model_tensor(name), host) for name, host in self._models.items()]
+        for group in _by_dtype(pairs):
+            packed = np.concatenate([host[rows].reshape(len(rows), -1) for _, host in group],
+                                    axis=1)
+            columns = torch.from_numpy(packed).to(self.torch_device)
+            start = 0
+            for view, host in group:
+                width = host[0].size
+                view[index] = columns[:, start:start + width].reshape(len(rows), *view.shape[1:])
+                start += width
 
-    def _download(self, rows: np.ndarray) -> None:
-        """Host copies: the device's rows ``rows`` of every bound field to the host."""
+    def _download(self, rows: np.ndarray, index: torch.Tensor) -> None:
+        """Host copies: the device's rows ``rows`` of every bound field to the host, in one
+        transfer per dtype; ``index``: ``rows`` on the device."""
         if not self.host_copies:
             return
-        index = torch.from_numpy(rows).to(self.torch_device)
-        for name, host in self._bound.items():
-            host[rows] = self.tensor(name)[index].cpu().numpy()
+        pairs = [(self.tensor(name), host) for name, host in self._bound.items()]
+        for group in _by_dtype(pairs):
+            packed = torch.cat([view[index].reshape(len(rows), -1) for view, _ in group],
+                               dim=1).cpu().numpy()
+            start = 0
+            for _, host in group:
+                width = host[0].size
+                host[rows] = packed[:, start:start + width].reshape(len(rows), *host.shape[1:])
+                start += width
 
     @contextmanager
     def _launching(self) -> Iterator[None]:
@@ -188,28 +221,31 @@ class WarpBatch:
                 yield
 
     @contextmanager
-    def _kernels(self, ids: np.ndarray | None = None, sync: bool = True) -> Iterator[None]:
+    def _kernels(self, ids: np.ndarray | None = None,
+                 sync: bool = True) -> Iterator[torch.Tensor | None]:
         """Runs kernels on the device, which holds the state. With ``sync`` the host's rows
         of the worlds ``ids`` (None: all) are uploaded before and downloaded after, and
         every other world's bound rows are put back as they were (on the device: the
-        kernels run on all worlds). Without it nothing moves (a step: the caller reads
-        and writes the device through :meth:`tensor`)."""
+        kernels run on all worlds); it yields ``ids`` on the device. Without it nothing
+        moves (a step: the caller reads and writes the device through :meth:`tensor`)."""
         if not sync:
             with self._launching():
-                yield
+                yield None
             return
         chosen = np.zeros(self.nsim, dtype=bool)
         chosen[_ids(ids, self.nsim)] = True
         rows = np.flatnonzero(chosen)
-        others = torch.from_numpy(np.flatnonzero(~chosen)).to(self.torch_device)
-        self._upload(rows)
+        # the chosen worlds, then the others: one transfer of indices
+        order = torch.from_numpy(np.argsort(~chosen, kind="stable")).to(self.torch_device)
+        index, others = order[:len(rows)], order[len(rows):]
+        self._upload(rows, index)
         kept = {name: self.tensor(name)[others].clone() for name in self._bound} \
             if len(others) else {}
         with self._launching():
-            yield
+            yield index
         for name, saved in kept.items():
             self.tensor(name)[others] = saved
-        self._download(rows)
+        self._download(rows, index)
 
     # ------------------------------------------------------------------ stages
     def _stages(self, stage: int) -> None:
@@ -280,10 +316,10 @@ class WarpBatch:
         """Resets worlds ``ids`` to the model's defaults, then computes ``stage``
         (``Batch.reset`` without keyframes)."""
         rows = _ids(ids, self.nsim)
-        mask = np.zeros(self.nsim, dtype=bool)
-        mask[rows] = True
-        with self._kernels(None if ids is None else rows):
-            wp.to_torch(self._reset_mask)[:] = torch.from_numpy(mask).to(self.torch_device)
+        with self._kernels(None if ids is None else rows) as index:
+            mask = wp.to_torch(self._reset_mask)
+            mask.zero_()
+            mask[index] = True
 
             def kernels() -> None:
                 mjw.reset_data(self.m, self.d, reset=self._reset_mask)
@@ -298,8 +334,9 @@ class WarpBatch:
             self._launch(("set_const",), lambda: mjw.set_const(self.m, self.d))
 
     def _check_overflow(self) -> None:
-        contacts = int(wp.to_torch(self.d.nacon)[0])  # on torch's stream, after the step
-        rows = int(wp.to_torch(self.d.nefc).max())
+        # on torch's stream, after the step; one read from the device
+        counts = torch.stack([wp.to_torch(self.d.nacon)[0], wp.to_torch(self.d.nefc).max()])
+        contacts, rows = counts.cpu().tolist()
         if contacts > self.d.naconmax or rows > self.d.njmax:
             raise RuntimeError(
                 f"MuJoCo Warp ran out of room: {contacts} contacts for {self.d.naconmax}, "
