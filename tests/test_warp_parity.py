@@ -264,6 +264,42 @@ def test_on_a_gpu_a_captured_step_is_the_launched_one():
     np.testing.assert_allclose(trajectories[1], trajectories[0], atol=1e-5, rtol=0)
 
 
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a CUDA GPU")
+def test_on_a_gpu_the_mdp_is_the_cpu_devices(monkeypatch):
+    """The whole MDP on a GPU (the step on the device's arrays, resets through host copies
+    synchronised by rows, CUDA graphs) and on the CPU device, from the same seed and
+    actions at full difficulty with timeouts and resets: the same starts, dones and
+    pushes; observations and rewards within the parity tolerances (float32 on both,
+    different hardware)."""
+    monkeypatch.setattr(recovery_env_module, "build_scene", _converged_scene)
+    runs = {}
+    for device in ("cpu", "cuda"):
+        cfg = default_config()
+        cfg.num_envs, cfg.num_threads, cfg.seed = NUM_ENVS, 1, 1
+        cfg.backend, cfg.device = "warp", device
+        cfg.curriculum.enabled = False
+        cfg.episode_length_s = 0.06  # timeouts and resets within the run
+        env = RecoveryEnv(cfg, device=device)
+        gen = torch.Generator().manual_seed(0)
+        steps = []
+        for _ in range(STEPS + 2):
+            obs, reward, done, _ = env.step(torch.randn(NUM_ENVS, 27, generator=gen) * 0.3)
+            steps.append({"policy": obs["policy"].cpu().numpy(),
+                          "critic": obs["critic"].cpu().numpy(),
+                          "reward": reward.cpu().numpy(), "done": done.cpu().numpy(),
+                          "push": env.applied_push(0)})
+        runs[device] = (env.start_pose.copy(), steps)
+    (poses_cpu, cpu), (poses_gpu, gpu) = runs["cpu"], runs["cuda"]
+    np.testing.assert_array_equal(poses_gpu, poses_cpu)
+    assert any(step["done"].any() for step in cpu)
+    for a, b in zip(cpu, gpu, strict=True):
+        np.testing.assert_array_equal(b["done"], a["done"])
+        np.testing.assert_array_equal(b["push"], a["push"])
+        np.testing.assert_allclose(b["policy"], a["policy"], atol=OBS_TOL, rtol=0)
+        np.testing.assert_allclose(b["critic"], a["critic"], atol=OBS_TOL, rtol=0)
+        np.testing.assert_allclose(b["reward"], a["reward"], atol=REWARD_TOL, rtol=0)
+
+
 def test_plane_box_contacts_differ():
     """A known difference of the engines (MuJoCo 4.0 vs MuJoCo Warp 4.0.0): a box tilted
     and pressed into the floor so that corners of its upper half are below it gets at
