@@ -314,3 +314,26 @@ def test_plot_deployment_pace_reads_each_checkpoints_rates_and_env_steps(tmp_pat
         json.dumps({"key": "__header__", "controller": "qp"}) + "\n")
     with pytest.raises(ValueError, match="names no checkpoint with env steps"):
         module.checkpoint_rates(tmp_path / "qp")
+
+
+@pytest.mark.warp
+def test_backend_parity_probe_reports_each_pose_within_the_parity_tolerances(monkeypatch,
+                                                                             capsys):
+    """On the project's model over two control steps, every pose's worlds agree between
+    the backends within ``test_warp_parity``'s tolerances, and the table has a row per
+    pose with one cell per step."""
+    pytest.importorskip("mujoco_warp", reason="MuJoCo Warp not installed (the 'warp' extra)")
+    module = _script("probe_backend_parity")
+    worst = module.parity(None, [1], steps=2, num_envs=8, physics_dt=0.005)
+    assert len(worst) >= 4
+    for pose, table in worst.items():
+        assert table.shape == (2, 3)
+        assert table[:, 0].max() < 1e-4 and table[:, 1].max() < 3e-3, pose
+        assert table[:, 2].max() < 1e-5, pose
+    monkeypatch.setattr(sys, "argv", ["probe_backend_parity.py", "--seeds", "1",
+                                      "--steps", "1", "--num-envs", "8"])
+    module.main()
+    rows = [line for line in capsys.readouterr().out.splitlines()
+            if line.startswith("| ") and not line.startswith("| pose")]
+    assert {row.split(" | ")[0][2:] for row in rows} == set(worst)
+    assert all(row.count(" / ") == 2 for row in rows)
