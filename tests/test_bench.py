@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import time
+from collections import defaultdict
 
 import numpy as np
 import pytest
@@ -11,6 +13,7 @@ import torch
 
 from hybrid_recovery.bench import BENCHES, run_dynamics_bench
 from hybrid_recovery.bench.dynamics import MJ_FORWARD, random_states
+from hybrid_recovery.bench.env import _timed, device_sync
 from hybrid_recovery.bench.result import BenchResult
 from hybrid_recovery.bench.timing import best_seconds
 from hybrid_recovery.bench.update_parts import UPDATE_PARTS, fill_storage, time_update_parts
@@ -94,6 +97,21 @@ def test_env_bench_reports_rates_and_split():
     assert set(figures["ms_per_step"]) == {"physics", "state_and_hulls", "observations",
                                            "resets", "rewards_terminations_other"}
 
+
+
+def test_a_timed_part_ends_when_its_device_work_is_done():
+    """With a device's sync (a GPU's ``torch.cuda.synchronize``) a timed part lasts until
+    the sync returns, not only until its launches return; the CPU has none."""
+    class Part:
+        def launch(self):
+            return "queued"
+
+    totals: dict[str, float] = defaultdict(float)
+    part, done = Part(), []
+    _timed(part, "launch", totals, sync=lambda: (time.sleep(0.05), done.append(True)))
+    assert part.launch() == "queued" and done == [True]
+    assert totals["launch"] >= 0.05
+    assert device_sync("cpu") is None
 
 
 def test_terms_bench_times_numpy_and_torch_on_the_same_arrays():

@@ -5,13 +5,16 @@ from __future__ import annotations
 import os
 import time
 from collections import defaultdict
+from collections.abc import Callable
 
 from hybrid_recovery.bench.physics_replay import PhysicsReplay
 from hybrid_recovery.bench.result import BenchResult
 
 
-def _timed(obj, name: str, totals: dict) -> None:
-    """Wraps ``obj.name`` to accumulate its wall time in ``totals[name]``."""
+def _timed(obj, name: str, totals: dict, sync: Callable[[], None] | None = None) -> None:
+    """Wraps ``obj.name`` to accumulate its wall time in ``totals[name]``; with ``sync``
+    (a GPU's ``torch.cuda.synchronize``) the time runs until the work it queued is done,
+    not only launched."""
     fn = getattr(obj, name)
 
     def wrapper(*args, **kwargs):
@@ -19,9 +22,20 @@ def _timed(obj, name: str, totals: dict) -> None:
         try:
             return fn(*args, **kwargs)
         finally:
+            if sync is not None:
+                sync()
             totals[name] += time.perf_counter() - t
 
     setattr(obj, name, wrapper)
+
+
+def device_sync(device: str) -> Callable[[], None] | None:
+    """What ends a timed part on ``device``: a GPU's queue drained (None on the CPU)."""
+    if device != "cuda":
+        return None
+    import torch
+
+    return torch.cuda.synchronize
 
 
 def _physics_name(cfg, threads: int) -> str:
@@ -40,7 +54,8 @@ def run_env_bench(n: int = 1024, repeat: int = 3, seed: int = 0, steps: int = 50
     and replays the same controls and pushes, substeps and sensors, with no observation,
     reward, contact-hull or reset work: the same physics, step for step (envs the env run
     reset continue without the reset). ``backend``/``device`` choose the physics
-    (:mod:`hybrid_recovery.sim.backend`); the JSON is the same for both.
+    (:mod:`hybrid_recovery.sim.backend`); the JSON is the same for both. On a GPU each
+    timed part ends with the device synchronised, so its work is counted in it.
     """
     import torch
 
@@ -55,8 +70,9 @@ def run_env_bench(n: int = 1024, repeat: int = 3, seed: int = 0, steps: int = 50
     for a in actions[:5]:
         env.step(a)
     totals: dict[str, float] = defaultdict(float)
+    sync = device_sync(device)
     for name in ("_physics", "_read_state", "_observations", "_reset"):
-        _timed(env, name, totals)
+        _timed(env, name, totals, sync)
     best_env, best_phys = float("inf"), float("inf")
     best_totals: dict[str, float] = {}
     replay = PhysicsReplay(env)

@@ -11,7 +11,7 @@ from collections import defaultdict
 from dataclasses import fields, replace
 from typing import Any, get_type_hints
 
-from hybrid_recovery.bench.env import _timed
+from hybrid_recovery.bench.env import _timed, device_sync
 from hybrid_recovery.bench.physics_replay import PhysicsReplay
 from hybrid_recovery.bench.result import BenchResult
 from hybrid_recovery.bench.update_parts import fill_storage, ratio_noise, time_update_parts
@@ -80,9 +80,10 @@ def run_train_bench(n: int = 1024, repeat: int = 2, seed: int = 0, threads: int 
         runner = RecoveryRunner(env, runner_dict(cfg), None, meta={},
                                 device=Rank().learner_device(cfg.device))
     totals: dict[str, float] = defaultdict(float)
-    _timed(env, "step", totals)
-    _timed(env, "_physics", totals)
-    _timed(runner.alg, "update", totals)
+    sync = device_sync(cfg.device)
+    _timed(env, "step", totals, sync)
+    _timed(env, "_physics", totals, sync)
+    _timed(runner.alg, "update", totals, sync)
     replay = PhysicsReplay(env)
     runner.learn(1)  # warm-up
     totals.clear()
