@@ -54,6 +54,15 @@ def _by_dtype(pairs: list[tuple[torch.Tensor, np.ndarray]]
     return list(groups.values())
 
 
+def _columns(group: list[tuple[torch.Tensor, np.ndarray]]
+             ) -> Iterator[tuple[torch.Tensor, np.ndarray, slice]]:
+    """Each pair of a dtype group with its columns in the group's packed (rows, …) array."""
+    start = 0
+    for view, host in group:
+        yield view, host, slice(start, start + host[0].size)
+        start += host[0].size
+
+
 class WarpBatch:
     """``nsim`` worlds of ``model`` in MuJoCo Warp on ``device``.
 
@@ -188,11 +197,8 @@ class WarpBatch:
             packed = np.concatenate([host[rows].reshape(len(rows), -1) for _, host in group],
                                     axis=1)
             columns = torch.from_numpy(packed).to(self.torch_device)
-            start = 0
-            for view, host in group:
-                width = host[0].size
-                view[index] = columns[:, start:start + width].reshape(len(rows), *view.shape[1:])
-                start += width
+            for view, _, cols in _columns(group):
+                view[index] = columns[:, cols].reshape(len(rows), *view.shape[1:])
 
     def _download(self, rows: np.ndarray, index: torch.Tensor) -> None:
         """Host copies: the device's rows ``rows`` of every bound field to the host, in one
@@ -203,11 +209,8 @@ class WarpBatch:
         for group in _by_dtype(pairs):
             packed = torch.cat([view[index].reshape(len(rows), -1) for view, _ in group],
                                dim=1).cpu().numpy()
-            start = 0
-            for _, host in group:
-                width = host[0].size
-                host[rows] = packed[:, start:start + width].reshape(len(rows), *host.shape[1:])
-                start += width
+            for _, host, cols in _columns(group):
+                host[rows] = packed[:, cols].reshape(len(rows), *host.shape[1:])
 
     @contextmanager
     def _launching(self) -> Iterator[None]:
