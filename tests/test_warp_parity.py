@@ -237,6 +237,60 @@ def test_host_copies_give_the_same_results_as_views():
     assert total[2] == pytest.approx(total[0], rel=1e-6)
 
 
+@pytest.mark.parametrize("host_copies", [False, True])
+def test_a_reset_of_some_worlds_leaves_every_field_of_the_others(host_copies):
+    """``reset(ids, stage=NONE)`` runs MuJoCo Warp's masked reset (nothing to put back):
+    every per-world data field of the other worlds is as it was, the reset worlds are at
+    the model's defaults, on views and through host copies alike."""
+    import warp as wp
+
+    model, _ = build_scene()
+    sims = WarpBatch(model, 4, "cpu", host_copies=host_copies)
+    qpos = sims.bind("qpos")
+    qpos[:, 2] += np.arange(4, dtype=np.float32) * 0.1
+    sims.bind("ctrl")[:] = 0.2
+    sims.forward()
+    sims.step(nstep=3, stage=mujoco.mjtStage.mjSTAGE_VEL)
+    sims.download()
+
+    def per_world() -> dict[str, np.ndarray]:
+        return {name: array.numpy().copy() for name in dir(sims.d)
+                if isinstance(array := getattr(sims.d, name), wp.array)
+                and array.shape and array.shape[0] == 4}
+
+    before = per_world()
+    sims.reset([1, 3], stage=mujoco.mjtStage.mjSTAGE_NONE)
+    after = per_world()
+    assert len(before) > 100
+    for name in before:
+        np.testing.assert_array_equal(after[name][[0, 2]], before[name][[0, 2]], err_msg=name)
+    np.testing.assert_array_equal(after["qpos"][[1, 3]],
+                                  np.tile(model.qpos0.astype(np.float32), (2, 1)))
+    np.testing.assert_array_equal(qpos[[1, 3]], after["qpos"][[1, 3]])  # host rows too
+    np.testing.assert_array_equal(after["qvel"][[1, 3]], 0.0)
+
+
+@pytest.mark.parametrize("host_copies", [False, True])
+def test_a_reset_with_its_stages_puts_the_others_bound_rows_back(host_copies):
+    """``reset(ids)`` computing the stages runs them on every world: the other worlds'
+    bound fields (acceleration-stage sensors included) are put back as they were."""
+    model, _ = build_scene()
+    sims = WarpBatch(model, 4, "cpu", host_copies=host_copies)
+    bound = {name: sims.bind(name) for name in ("qpos", "qvel", "ctrl", "sensordata", "xmat")}
+    bound["qpos"][:, 2] += np.arange(4, dtype=np.float32) * 0.1
+    bound["ctrl"][:] = 0.2
+    sims.forward()
+    sims.step(nstep=3, stage=mujoco.mjtStage.mjSTAGE_VEL)
+    sims.download()
+    before = {name: sims.tensor(name).numpy().copy() for name in bound}
+    sims.reset([1, 3])
+    for name in bound:
+        after = sims.tensor(name).numpy()
+        np.testing.assert_array_equal(after[[0, 2]], before[name][[0, 2]], err_msg=name)
+        np.testing.assert_array_equal(bound[name], after, err_msg=name)
+    assert not np.array_equal(sims.tensor("sensordata").numpy()[1], before["sensordata"][1])
+
+
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a CUDA GPU")
 def test_on_a_gpu_a_captured_step_is_the_launched_one():
     """The calls as CUDA graphs (the default on a GPU) and kernel by kernel, with the

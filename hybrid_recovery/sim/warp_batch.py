@@ -224,13 +224,14 @@ class WarpBatch:
                 yield
 
     @contextmanager
-    def _kernels(self, ids: np.ndarray | None = None,
-                 sync: bool = True) -> Iterator[torch.Tensor | None]:
+    def _kernels(self, ids: np.ndarray | None = None, sync: bool = True,
+                 all_worlds: bool = True) -> Iterator[torch.Tensor | None]:
         """Runs kernels on the device, which holds the state. With ``sync`` the host's rows
-        of the worlds ``ids`` (None: all) are uploaded before and downloaded after, and
-        every other world's bound rows are put back as they were (on the device: the
-        kernels run on all worlds); it yields ``ids`` on the device. Without it nothing
-        moves (a step: the caller reads and writes the device through :meth:`tensor`)."""
+        of the worlds ``ids`` (None: all) are uploaded before and downloaded after, and,
+        for kernels that run on ``all_worlds``, every other world's bound rows are put
+        back as they were (on the device); it yields ``ids`` on the device. Without
+        ``sync`` nothing moves (a step: the caller reads and writes the device through
+        :meth:`tensor`)."""
         if not sync:
             with self._launching():
                 yield None
@@ -243,7 +244,7 @@ class WarpBatch:
         index, others = order[:len(rows)], order[len(rows):]
         self._upload(rows, index)
         kept = {name: self.tensor(name)[others].clone() for name in self._bound} \
-            if len(others) else {}
+            if all_worlds and len(others) else {}
         with self._launching():
             yield index
         for name, saved in kept.items():
@@ -317,9 +318,11 @@ class WarpBatch:
     def reset(self, ids: Sequence[int] | np.ndarray | None = None,
               stage: int = mujoco.mjtStage.mjSTAGE_ACC) -> None:
         """Resets worlds ``ids`` to the model's defaults, then computes ``stage``
-        (``Batch.reset`` without keyframes)."""
+        (``Batch.reset`` without keyframes). The reset itself runs on the masked worlds
+        only; the stages, on all."""
         rows = _ids(ids, self.nsim)
-        with self._kernels(None if ids is None else rows) as index:
+        staged = int(stage) > int(mujoco.mjtStage.mjSTAGE_NONE)
+        with self._kernels(None if ids is None else rows, all_worlds=staged) as index:
             mask = wp.to_torch(self._reset_mask)
             mask.zero_()
             mask[index] = True
