@@ -16,8 +16,8 @@ Semantics follow ``Batch``: ``step(nstep, stage)`` runs ``nstep`` ``mj_step`` an
 stages up to ``stage`` at the new state (acceleration-stage sensors such as contact
 sensors keep the values of the last substep, as in C); a ``forward``, ``reset`` or
 ``set_const`` on some worlds leaves every bound field of the other worlds unchanged
-(MuJoCo Warp runs its kernels on all worlds: the other worlds' rows are put back, on the
-device).
+(MuJoCo Warp runs the stages and ``set_const`` on all worlds: the other worlds' rows are
+put back, on the device; its reset is masked).
 """
 
 from __future__ import annotations
