@@ -8,7 +8,8 @@
 set -uo pipefail
 cd "$(dirname "$0")/.."
 out=${1:-results/gpu}
-python -c "import sys, torch; sys.exit(0 if torch.cuda.is_available() else \
+py=${PYTHON:-python}  # the interpreter (PYTHON=python3 where there is no 'python')
+"$py" -c "import sys, torch; sys.exit(0 if torch.cuda.is_available() else \
 'gpu_check: no CUDA GPU (torch.cuda.is_available() is False)')" || exit 1
 mkdir -p "$out"
 failed=0
@@ -18,9 +19,9 @@ part() {  # name, then the command; its output to OUT_DIR/name.txt, its last lin
     "$@" > "$out/$name.txt" 2>&1 || { failed=$((failed + 1)); echo "FAILED: $name"; }
     tail -1 "$out/$name.txt"
 }
-hr=(python -m hybrid_recovery.cli.main)
+hr=("$py" -m hybrid_recovery.cli.main)
 part gpu nvidia-smi --query-gpu=name,memory.total --format=csv,noheader
-part tests python -m pytest -q -p no:cacheprovider -k "gpu or cuda" \
+part tests "$py" -m pytest -q -p no:cacheprovider -k "gpu or cuda" \
     tests/test_warp_parity.py tests/test_step_state.py
 part bench_env_4096 "${hr[@]}" bench env --backend warp --device cuda -n 4096
 part bench_env_8192 "${hr[@]}" bench env --backend warp --device cuda -n 8192
