@@ -13,9 +13,9 @@ import torch
 
 from hybrid_recovery.bench import BENCHES, run_dynamics_bench
 from hybrid_recovery.bench.dynamics import MJ_FORWARD, random_states
-from hybrid_recovery.bench.env import _timed, device_sync
+from hybrid_recovery.bench.env import _timed
 from hybrid_recovery.bench.result import BenchResult
-from hybrid_recovery.bench.timing import best_seconds
+from hybrid_recovery.bench.timing import best_seconds, device_sync
 from hybrid_recovery.bench.update_parts import UPDATE_PARTS, fill_storage, time_update_parts
 from hybrid_recovery.cli.main import main
 

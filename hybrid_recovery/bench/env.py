@@ -9,6 +9,7 @@ from collections.abc import Callable
 
 from hybrid_recovery.bench.physics_replay import PhysicsReplay
 from hybrid_recovery.bench.result import BenchResult
+from hybrid_recovery.bench.timing import device_sync
 
 
 def _timed(obj, name: str, totals: dict, sync: Callable[[], None] | None = None) -> None:
@@ -27,15 +28,6 @@ def _timed(obj, name: str, totals: dict, sync: Callable[[], None] | None = None)
             totals[name] += time.perf_counter() - t
 
     setattr(obj, name, wrapper)
-
-
-def device_sync(device: str) -> Callable[[], None] | None:
-    """What ends a timed part on ``device``: a GPU's queue drained (None on the CPU)."""
-    if device != "cuda":
-        return None
-    import torch
-
-    return torch.cuda.synchronize
 
 
 def _physics_name(cfg, threads: int) -> str:

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from hybrid_recovery.bench.result import BenchResult
+from hybrid_recovery.bench.timing import device_sync
 from hybrid_recovery.dynamics.arrays import Array
 from hybrid_recovery.envs.config import RewardConfig
 from hybrid_recovery.envs.rewards import compute_rewards
@@ -99,7 +100,7 @@ def run_terms_bench(n: int = 4096, repeat: int = 5, seed: int = 0, device: str =
     arrays = env_arrays(env, np.random.default_rng(seed))
     tensors = {k: torch.as_tensor(v, device=device) for k, v in arrays.items()}
     tensors = {k: v.float() if v.is_floating_point() else v for k, v in tensors.items()}
-    sync = torch.cuda.synchronize if device == "cuda" else (lambda: None)
+    sync = device_sync(device) or (lambda: None)
     best: dict[str, dict[str, float]] = {}
     runs: tuple[tuple[str, Mapping[str, Any]], ...] = (("numpy", arrays), ("torch", tensors))
     for name, inputs in runs:

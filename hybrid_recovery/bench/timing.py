@@ -24,3 +24,12 @@ def best_seconds(fn: Callable[[], object], repeat: int) -> float:
         fn()
         best = min(best, time.perf_counter() - start)
     return best
+
+
+def device_sync(device: str) -> Callable[[], None] | None:
+    """What ends a timed part on ``device``: a GPU's queue drained (None on the CPU)."""
+    if device != "cuda":
+        return None
+    import torch
+
+    return torch.cuda.synchronize

@@ -11,9 +11,10 @@ from collections import defaultdict
 from dataclasses import fields, replace
 from typing import Any, get_type_hints
 
-from hybrid_recovery.bench.env import _timed, device_sync
+from hybrid_recovery.bench.env import _timed
 from hybrid_recovery.bench.physics_replay import PhysicsReplay
 from hybrid_recovery.bench.result import BenchResult
+from hybrid_recovery.bench.timing import device_sync
 from hybrid_recovery.bench.update_parts import fill_storage, ratio_noise, time_update_parts
 
 

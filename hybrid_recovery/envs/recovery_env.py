@@ -202,9 +202,8 @@ class RecoveryEnv(VecEnv):
         """
         xp, sim = self._xp, self._sim
         raw = self._from_torch(actions)
-        bad = ~xp.all(xp.isfinite(raw), axis=1)
-        if self._device is not None or bad.any():  # on a device: no read before the physics
-            raw = xp.where(bad[:, None], 0.0, raw)
+        bad = ~xp.all(xp.isfinite(raw), axis=1)  # read with the physics' flags, once
+        raw = xp.where(bad[:, None], 0.0, raw)
         self.last_action = self.action
         self.action = clip_action(raw)
         lo_hi = sim["jnt_range"][:, 1:1 + self.num_actions]
@@ -313,12 +312,10 @@ class RecoveryEnv(VecEnv):
             return dict(zip(HOST_STATE, values, strict=True))
         packed = torch.cat([value.reshape(self.num_envs, -1) for value in values],
                            dim=1).cpu().numpy()
-        host, start = {}, 0
-        for key, value in zip(HOST_STATE, values, strict=True):
-            width = value[0].numel()
-            host[key] = packed[:, start:start + width].reshape(value.shape)
-            start += width
-        return host
+        widths = [value[0].numel() for value in values]
+        columns = np.split(packed, np.cumsum(widths)[:-1], axis=1)
+        return {key: column.reshape(value.shape)
+                for key, value, column in zip(HOST_STATE, values, columns, strict=True)}
 
     def _reward_state(self, terminated: np.ndarray) -> RewardState[Any]:
         """The reward terms' inputs; ``terminated`` (N,) bool on the host."""
@@ -359,7 +356,8 @@ class RecoveryEnv(VecEnv):
         return value if isinstance(value, np.ndarray) else value.cpu().numpy()
 
     def _from_torch(self, value: torch.Tensor) -> Any:
-        """The learner's actions (N, 27) as :attr:`_sim`'s kind of array, float64."""
+        """The learner's actions (N, 27) as :attr:`_sim`'s kind of array (on a device in
+        float64; :func:`~hybrid_recovery.robot.action.clip_action` makes numpy's float64)."""
         value = value.detach()
         return value.cpu().numpy() if self._device is None else \
             value.to(self._device, torch.float64)
@@ -437,8 +435,9 @@ class RecoveryEnv(VecEnv):
         history = self.history[ids]
         history[:, self._history_values] = start[:, :, None]  # hold the start pose
         self.history[ids] = history
-        self.action[self._rows(ids)] = 0.0
-        self.last_action[self._rows(ids)] = 0.0
+        sim_ids = self._rows(ids)
+        self.action[sim_ids] = 0.0
+        self.last_action[sim_ids] = 0.0
         self.xfrc[ids] = 0.0
         self.sims.forward(ids)
         self.pushes.reset(ids, rng)

@@ -224,18 +224,13 @@ class WarpBatch:
                 yield
 
     @contextmanager
-    def _kernels(self, ids: np.ndarray | None = None, sync: bool = True,
-                 all_worlds: bool = True) -> Iterator[torch.Tensor | None]:
-        """Runs kernels on the device, which holds the state. With ``sync`` the host's rows
-        of the worlds ``ids`` (None: all) are uploaded before and downloaded after, and,
-        for kernels that run on ``all_worlds``, every other world's bound rows are put
-        back as they were (on the device); it yields ``ids`` on the device. Without
-        ``sync`` nothing moves (a step: the caller reads and writes the device through
-        :meth:`tensor`)."""
-        if not sync:
-            with self._launching():
-                yield None
-            return
+    def _kernels(self, ids: np.ndarray | None = None,
+                 all_worlds: bool = True) -> Iterator[torch.Tensor]:
+        """Runs kernels on the device, which holds the state, for the worlds ``ids``
+        (None: all): the host's rows of them are uploaded before and downloaded after,
+        and, for kernels that run on ``all_worlds``, every other world's bound rows are
+        put back as they were (on the device); it yields ``ids`` on the device. (A step
+        moves nothing: it launches in :meth:`_launching` alone.)"""
         chosen = np.zeros(self.nsim, dtype=bool)
         chosen[_ids(ids, self.nsim)] = True
         rows = np.flatnonzero(chosen)
@@ -274,7 +269,7 @@ class WarpBatch:
         """
         if ids is not None and len(np.unique(ids)) != self.nsim:
             raise ValueError("WarpBatch steps every world: ids must be None or all worlds")
-        with self._kernels(sync=False):
+        with self._launching():
             self._launch(("step", nstep, int(stage)), lambda: self._substeps(nstep, int(stage)))
         self._check_overflow()
 
