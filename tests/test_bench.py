@@ -185,8 +185,12 @@ def test_train_bench_reports_split_and_physics_rate(train_bench):
                                                "policy_inference_and_storage", "ppo_update"}
     settings = dict(figures["settings"])
     assert settings.pop("omp_wait_policy") in (None, "PASSIVE", "ACTIVE")  # as the env has it
+    # unset, the precision is the machine's choice, and the bench says which and why
+    choice = settings.pop("precision_choice")
+    assert choice.startswith(("bf16: measured", "fp32: measured"))
+    assert settings.pop("mixed_precision") is choice.startswith("bf16")
     assert settings == {"backend": "batch", "device": "cpu", "threads": 1, "torch_threads": 1,
-                        "mixed_precision": True, "num_learning_epochs": 5,
+                        "num_learning_epochs": 5,
                         "num_mini_batches": 4, "symmetry": False}
 
 
@@ -211,7 +215,7 @@ def test_update_parts_leave_the_learner_as_it_was():
     from hybrid_recovery.training.runner import RecoveryRunner, make_env_config
 
     cfg = TrainConfig(num_envs=4, num_threads=1)
-    cfg.ppo.symmetry = True
+    cfg.ppo.symmetry, cfg.ppo.mixed_precision = True, True
     env = RecoveryEnv(make_env_config(cfg))
     with contextlib.redirect_stdout(io.StringIO()):
         runner = RecoveryRunner(env, runner_dict(cfg), None, meta={})

@@ -20,6 +20,7 @@ from hybrid_recovery.policy import SHIPPED_POLICY
 from hybrid_recovery.training.checkpoint import load_checkpoint
 from hybrid_recovery.training.config import amend_train_config, train_config_from_dict
 from hybrid_recovery.training.runner import _resumed_config, make_env_config
+from hybrid_recovery.training.stages import stage_config
 from hybrid_recovery.training.variants import VARIANTS, variant_train_config
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -99,22 +100,31 @@ def test_the_live_checkpoints_run_resumes_with_its_saved_settings():
     assert set(infos["rises"]["level"]) == {"sitting", "supine"}
 
 
-def test_the_recovery_rises_variant_is_the_shipped_recipe():
-    """``--variant recovery_rises`` gives the record's train and env configs (the record's
-    config is its run's with every amendment applied), and applying the amendments once
-    more changes nothing."""
+def test_the_recipes_last_stage_is_the_shipped_recipe():
+    """``--variant recovery_rises`` in its ``rises`` stage gives the record's train and env
+    configs (the record's config is its run's with every amendment applied), and applying
+    the amendments once more changes nothing."""
     record = json.loads(RECORD.read_text())
-    ours = variant_train_config("recovery_rises")
+    recipe = variant_train_config("recovery_rises")
+    assert recipe.stages is not None
+    ours = stage_config(recipe, "rises", Path("."), recipe.stages)
+    ours = dataclasses.replace(ours, env_overrides={  # the lineage's recordings' paths
+        **ours.env_overrides, "rises.files": record["env_config"]["rises"]["files"]})
     shipped = train_config_from_dict(record["train_config"])
-    machine = {"num_threads": 2, "torch_threads": None}  # how it ran, not what it learned
-    assert dataclasses.replace(ours, variant="", env_overrides={}, **machine) == \
+    # how it ran, not what it learned; the stages and milestones are the recipe's own
+    machine = {"num_threads": 2, "torch_threads": None, "stages": None,
+               "milestone_interval": None}
+    precision = dataclasses.replace(ours.ppo, mixed_precision=shipped.ppo.mixed_precision)
+    assert dataclasses.replace(ours, variant="", env_overrides={}, ppo=precision, **machine) == \
         dataclasses.replace(shipped, variant="", env_overrides={}, **machine)
     assert _plain(make_env_config(ours)) == \
         {**_plain(env_config_from_dict(record["env_config"])), "num_threads": 2}
+    ours = dataclasses.replace(ours, ppo=precision)
     amended = ours
     for amendment in record["amendments"]:
         amended = amend_train_config(amended, amendment["changes"])
-    assert dataclasses.replace(amended, env_overrides={}) == ours
+    assert dataclasses.replace(amended, env_overrides={}) == \
+        dataclasses.replace(ours, env_overrides={})
     assert _plain(make_env_config(amended)) == _plain(make_env_config(ours))
 
 

@@ -53,6 +53,12 @@ class FakeLink:
     def write(self, wire: bytes) -> None:
         self.sent.append(wire)
 
+    def other_writers(self) -> list[str]:
+        return []  # the only controller on the domain
+
+    def other_writes(self) -> list[str]:
+        return []
+
     @property
     def count(self) -> int:
         return self.reads

@@ -5,6 +5,11 @@ s after the first command) and ``hybrid-recovery run-robot`` (state machine + a 
 stand-in, 4 s) on ``lo`` with a random domain id. The controller must see states with
 increasing ticks and go through zero torque → interpolate → hold → policy → damping; the
 robot must accept every command it got (valid CRC) and be standing when damping begins.
+
+Every wait is on an event (the controller waits for the robot's first state, the robot for
+the first command), with deadlines generous for a loaded machine; the robot applies the
+newest command at each 2 ms step, so a loaded machine supersedes some: what reaches the
+robot is counted where DDS delivers it.
 """
 
 from __future__ import annotations
@@ -20,7 +25,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-TIMEOUT_S = 55.0
+TIMEOUT_S = 120.0
 """Both processes together must finish within this (hard kill after)."""
 
 
@@ -51,12 +56,12 @@ def test_controller_stands_the_simulated_robot_up_over_loopback(tmp_path):
     policy = write_stand_in_policy(tmp_path / "zero", "zero")
     domain = str(random.SystemRandom().randint(1, 200))
     robot = _spawn("sim-robot", "--domain", domain, "--interface", "lo", "--gantry-s", "2.5",
-                   "--seconds", "45", "--idle-exit-s", "0.3")
+                   "--seconds", "100", "--idle-exit-s", "0.3")
     # zero torque 0.3 s, interpolate 2 s, hold 0.5 s (gantry released at 2.5 s), policy
     # from 2.8 s, damping at 4 s
     controller = _spawn("run-robot", "--policy", str(policy), "--domain", domain,
                         "--interface", "lo", "--seconds", "4", "--zero-torque-s", "0.3",
-                        "--hold-s", "0.5", "--wait-timeout-s", "40",
+                        "--hold-s", "0.5", "--wait-timeout-s", "90",
                         # this test is about the protocol and the sequence: on a shared,
                         # loaded test machine allow 200 ms stalls (defaults: 20 / 100 ms)
                         "--overrun-s", "0.2", "--stale-timeout-s", "0.3")
@@ -76,7 +81,8 @@ def test_controller_stands_the_simulated_robot_up_over_loopback(tmp_path):
     assert ctrl["fault_detail"] == "run time over"
 
     assert rob["commands_rejected"] == 0
-    assert rob["commands_accepted"] >= 0.9 * ctrl["commands_sent"] >= 150
+    assert rob["commands_received"] >= 0.9 * ctrl["commands_sent"] >= 150
+    assert 0 < rob["commands_accepted"] <= rob["commands_received"]
     standing = rob["standing"]
     assert standing["gantry"] == 0.0, "the gantry was never released"
     assert standing["pelvis_height"] > 0.98 and standing["torso_tilt_deg"] < 8.0, standing

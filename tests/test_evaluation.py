@@ -281,7 +281,7 @@ def test_results_record_the_policy_and_the_report_compares_budgets(tmp_path):
     lo, hi = wilson_interval(6, 10)
     none_hi = wilson_interval(0, 10)[1]
     assert table[2] == (f"| full a | full | 800 | 19.7 | 10 | 0.0% | [0.0%, {none_hi:.1%}] | "
-                        f"60.0% | [{lo:.1%}, {hi:.1%}] | 10 |")
+                        f"60.0% | [{lo:.1%}, {hi:.1%}] | 10 | 0 |")
     assert table[4].split(" | ")[7] == "100.0%" and table[5].startswith("| zero | – | – | – | 4 |")
     report = write_report(runs, tmp_path / "report", "budgets", provenance=provenance)
     assert "## Comparison" in report.read_text()

@@ -161,8 +161,12 @@ def test_bad_input_messages(own_model):
          f"contact set is empty: name at least one contact of {sorted(FLOOR_CONTACTS)}"),
         (lambda: static_feasibility(own_model, qpos, ("left_foot", "left_foot")),
          "contact set names a contact twice: ['left_foot', 'left_foot']"),
-        (lambda: FeasibilityConfig(friction=0.0), "friction must be > 0, got 0.0"),
-        (lambda: FeasibilityConfig(effort_scale=-1.0), "effort_scale must be > 0, got -1.0"),
+        (lambda: FeasibilityConfig(friction=0.0),
+         "FeasibilityConfig.friction must be > 0, got 0.0"),
+        (lambda: FeasibilityConfig(effort_scale=-1.0),
+         "FeasibilityConfig.effort_scale must be > 0, got -1.0"),
+        (lambda: FeasibilityConfig(floor_height=np.nan),
+         "FeasibilityConfig.floor_height must be finite, got nan"),
     ]
     for call, message in cases:
         with pytest.raises(ValueError) as err:

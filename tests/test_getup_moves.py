@@ -112,4 +112,4 @@ def test_move_config_messages():
                               "'prone', 'supine']")
     with pytest.raises(ValueError) as err:
         MoveConfig(range_factor=1.2)
-    assert str(err.value) == "range_factor must be in (0, 1], got 1.2"
+    assert str(err.value) == "MoveConfig.range_factor must be > 0 and <= 1, got 1.2"

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import mujoco
 import numpy as np
 import pytest
@@ -17,7 +19,8 @@ from hybrid_recovery.sim.initial_states import POSES
 
 @pytest.mark.skipif(not is_shipped(), reason="no shipped policy")
 def test_record_keeps_a_successful_rise_with_its_phases_and_contacts(tmp_path):
-    out = record_rises("prone", 1, tmp_path / "rises.npz", duration=20.0, seed=1)
+    out = record_rises("prone", 1, tmp_path / "rises.npz", duration=20.0, seed=1,
+                       policy="shipped")
     assert out == {"attempted": 1, "kept": 1, "path": tmp_path / "rises.npz"}
     rec = np.load(tmp_path / "rises.npz")
     n = len(rec["time"])
@@ -58,9 +61,10 @@ def test_handover_start_settles_in_knee_chest():
 
 def test_bad_input_messages(tmp_path):
     cases = [
-        (lambda: record_rises("flying", 1, tmp_path / "x.npz"),
+        (lambda: record_rises("flying", 1, tmp_path / "x.npz", policy="shipped"),
          f"unknown pose 'flying': choose one of {list(POSES)}"),
-        (lambda: record_rises("prone", 0, tmp_path / "x.npz"), "episodes must be >= 1, got 0"),
+        (lambda: record_rises("prone", 0, tmp_path / "x.npz", policy="shipped"),
+         "episodes must be >= 1, got 0"),
         (lambda: handover_map(trials=0), "trials must be >= 1, got 0"),
         (lambda: handover_map(("hovering",)),
          "unknown hand-over state 'hovering': use one of ['hands_knees', 'knee_chest', "
@@ -70,3 +74,132 @@ def test_bad_input_messages(tmp_path):
         with pytest.raises(ValueError) as err:
             call()
         assert str(err.value) == message
+
+
+@pytest.fixture(scope="module")
+def tiny_run(tmp_path_factory):
+    """A training run of one iteration (its policy does not rise: trials count as risen
+    where a test needs a kept rise)."""
+    from hybrid_recovery.training import TrainConfig, train
+
+    run = tmp_path_factory.mktemp("run")
+    cfg = TrainConfig(num_envs=4, iterations=1, save_interval=1, num_threads=1,
+                      env_overrides={"curriculum.window": 8})
+    cfg.ppo.mixed_precision = False
+    train(run, cfg)
+    return run
+
+
+@pytest.fixture
+def risen(monkeypatch):
+    """Trials of the recording run for real and count as risen; the policies loaded."""
+    from hybrid_recovery.evaluation import getup_record
+    from hybrid_recovery.policy import onnx_policy
+
+    loaded = []
+    real_trial, real_init = getup_record.run_trial, onnx_policy.OnnxPolicy.__init__
+
+    def init(self, path, *args, **kwargs):
+        loaded.append(str(path))
+        real_init(self, path, *args, **kwargs)
+
+    monkeypatch.setattr(getup_record, "run_trial",
+                        lambda *a, **k: {**real_trial(*a, **k), "success": True,
+                                         "recovery_time": 0.5})
+    monkeypatch.setattr(onnx_policy.OnnxPolicy, "__init__", init)
+    return loaded
+
+
+def test_record_runs_the_policy_of_a_run_directory(tmp_path, tiny_run, risen):
+    out = record_rises("sitting", 2, tmp_path / "sitting.npz", duration=1.0, seed=4,
+                       policy=tiny_run)
+    assert out == {"attempted": 2, "kept": 2, "path": tmp_path / "sitting.npz"}
+    assert np.load(tmp_path / "sitting.npz")["seeds"].tolist() == [4, 5]
+    # the run's checkpoint, exported to a temporary directory that is gone afterwards
+    assert risen and all("policy-" in path for path in risen)
+    assert not any(Path(path).exists() for path in risen)
+
+
+def test_record_runs_an_exported_policy_and_names_the_npz_it_writes(tmp_path, tiny_run,
+                                                                    risen, capsys):
+    from hybrid_recovery.cli.main import main
+    from hybrid_recovery.training.export import export_policy
+
+    exported = export_policy(tiny_run, tmp_path / "export")
+    assert main(["getup", "record", "--pose", "supine", "--episodes", "1", "--duration", "1",
+                 "--policy", str(exported), "--out", str(tmp_path / "rec")]) == 0
+    assert capsys.readouterr().out.endswith(f"kept 1 of 1 rises: {tmp_path / 'rec.npz'}\n")
+    assert (tmp_path / "rec.npz").is_file() and not (tmp_path / "rec").exists()
+    assert risen and {Path(p) if Path(p).is_dir() else Path(p).parent for p in risen} == {exported}
+
+
+def test_record_refuses_a_missing_or_damaged_policy_in_one_line(tmp_path, tiny_run, capsys):
+    from hybrid_recovery.cli.main import main
+    from hybrid_recovery.training.export import export_policy
+
+    args = ["getup", "record", "--pose", "sitting", "--episodes", "1",
+            "--out", str(tmp_path / "x.npz"), "--policy"]
+    assert main([*args, str(tmp_path / "nope")]) == 2
+    assert capsys.readouterr().err == (
+        f"error: policy directory not found: {tmp_path / 'nope'}; --policy takes an exported "
+        "policy, its policy.onnx, a training run directory or 'shipped'\n")
+    damaged = export_policy(tiny_run, tmp_path / "damaged", record=False)
+    (damaged / "policy.onnx").write_bytes(b"not a model")
+    assert main([*args, str(damaged)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"error: cannot load policy {damaged}: ") and err.count("\n") == 1
+    assert not (tmp_path / "x.npz").exists()
+    with pytest.raises(SystemExit):  # a policy must be named
+        main(["getup", "record", "--pose", "sitting", "--episodes", "1", "--out", "x.npz"])
+    assert "the following arguments are required: --policy" in capsys.readouterr().err
+
+
+def test_record_never_overwrites_and_writes_nothing_without_a_rise(tmp_path, tiny_run,
+                                                                   monkeypatch, capsys):
+    from hybrid_recovery.cli.main import main
+    from hybrid_recovery.evaluation import getup_record
+
+    good = tmp_path / "good.npz"
+    good.write_bytes(b"a good recording")
+    args = ["getup", "record", "--pose", "sitting", "--episodes", "1", "--duration", "1",
+            "--policy", str(tiny_run), "--out"]
+    assert main([*args, str(good)]) == 2
+    assert capsys.readouterr().err == (f"error: {good} already holds a recording; pass --force "
+                                       "to overwrite it\n")
+    monkeypatch.setattr(getup_record, "run_trial", lambda *a, **k: {"success": False})
+    assert main([*args, str(good), "--force"]) == 2  # nothing kept: the good one stays
+    assert capsys.readouterr().err == (f"error: no rise kept from sitting in 1 episodes: "
+                                       f"nothing written to {good}\n")
+    assert good.read_bytes() == b"a good recording"
+    assert list(tmp_path.iterdir()) == [good]  # no temporary file left
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["map", "--noise", "nan"], "argument --noise: must be a finite number from 0 to 5, got 'nan'"),
+    (["map", "--trials", "0"], "argument --trials: must be an integer >= 1, got '0'"),
+    (["map", "--duration", "inf"], "argument --duration: must be a finite number > 0, got 'inf'"),
+    (["map", "--seed", "-3"], "argument --seed: must be an integer >= 0, got '-3'"),
+    (["margins", "--seed", "-2"], "argument --seed: must be an integer >= 0, got '-2'"),
+    (["record", "--pose", "sitting", "--episodes", "0", "--policy", "shipped", "--out", "x"],
+     "argument --episodes: must be an integer >= 1, got '0'"),
+])
+def test_getup_refuses_numbers_at_the_edge(args, message, capsys):
+    from hybrid_recovery.cli.main import main
+
+    with pytest.raises(SystemExit) as stop:
+        main(["getup", *args])
+    assert stop.value.code == 2
+    assert capsys.readouterr().err.strip().endswith(f"error: {message}")
+
+
+@pytest.mark.parametrize("args", [["map", "--trials", "1", "--out"],
+                                  ["margins", "--out"], ["margins", "--plot"]])
+def test_getup_outputs_are_kept_without_force(args, tmp_path, capsys):
+    from hybrid_recovery.cli.main import main
+
+    kept = tmp_path / "kept"
+    kept.write_text("earlier results")
+    assert main(["getup", *args, str(kept)]) == 2
+    assert capsys.readouterr().err == (f"error: {kept} already exists; pass --force to "
+                                       "overwrite it\n")
+    assert kept.read_text() == "earlier results"

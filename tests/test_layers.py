@@ -1,9 +1,9 @@
 """Layers import downward only: every module's imports, parsed, against the layer order.
 
-robot → dynamics → observation → sim → policy → control / envs → training / getup →
-evaluation / deploy → bench / demo → cli. A package may import its own modules and any
-package of a lower layer; packages of one layer do not import each other. Imports inside
-functions count too.
+files / checks → robot → dynamics → observation → sim → policy → control / envs →
+training / getup → evaluation / deploy → bench / demo / recipe → cli. A package may import
+its own modules and any package of a lower layer; packages of one layer do not import each
+other. Imports inside functions count too.
 """
 
 from __future__ import annotations
@@ -16,6 +16,7 @@ import pytest
 PACKAGE = Path(__file__).resolve().parents[1] / "hybrid_recovery"
 
 LAYERS: tuple[tuple[str, ...], ...] = (
+    ("files", "checks"),
     ("robot",),
     ("dynamics",),
     ("observation",),
@@ -24,7 +25,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("control", "envs"),
     ("training", "getup"),
     ("evaluation", "deploy"),
-    ("bench", "demo"),
+    ("bench", "demo", "recipe"),
     ("cli",),
 )
 """The layer order, lowest first."""

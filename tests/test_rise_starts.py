@@ -26,6 +26,7 @@ from hybrid_recovery.sim.scene import build_scene
 from hybrid_recovery.training.checkpoint import atomic_save, load_checkpoint
 from hybrid_recovery.training.config import TrainConfig
 from hybrid_recovery.training.runner import train
+from hybrid_recovery.training.stages import stage_config
 from hybrid_recovery.training.variants import variant_overrides, variant_train_config
 
 NQ, NV = 34, 33
@@ -159,13 +160,21 @@ def test_bad_recordings_and_settings_are_refused_verbatim(tmp_path):
         RiseStarts(RiseConfig(files=(str(good),), levels=32), NQ, NV)
     assert str(err.value) == (f"rise recording {good}: rises.levels = 32 leaves stretches "
                               f"{list(range(0, 32, 2))} without a sample; use fewer levels")
-    for bad in ({"levels": 0}, {"window": 0}, {"advance": 0.1}, {"retreat": -0.1}):
-        with pytest.raises(ValueError) as err:
-            RiseStarts(RiseConfig(**{"files": (str(good),), **bad}), NQ, NV)
-        cfg = RiseConfig(**bad)
-        assert str(err.value) == (f"rises needs levels >= 1, window >= 1 and 0 <= retreat < "
-                                  f"advance <= 1; got {cfg.levels}, {cfg.window}, "
-                                  f"{cfg.retreat}, {cfg.advance}")
+    for bad, message in (
+            ({"levels": 0}, "RiseConfig.levels must be >= 1, got 0"),
+            ({"window": 0}, "RiseConfig.window must be >= 1, got 0"),
+            ({"advance": 0.1}, "RiseConfig.retreat must be < advance, got retreat 0.15 and "
+                               "advance 0.1"),
+            ({"retreat": -0.1}, "RiseConfig.retreat must be >= 0 and <= 1, got -0.1")):
+        with pytest.raises(ValueError) as err:  # refused where the config is made
+            RiseConfig(**{"files": (str(good),), **bad})
+        assert str(err.value) == message
+    cfg = RiseConfig(files=(str(good),))
+    cfg.advance = 0.1  # set after construction, as --set does
+    with pytest.raises(ValueError) as err:
+        RiseStarts(cfg, NQ, NV)
+    assert str(err.value) == ("rises needs levels >= 1, window >= 1 and 0 <= retreat < "
+                              "advance <= 1; got 8, 128, 0.15, 0.1")
 
 
 def test_turning_a_state_about_the_vertical_keeps_what_the_floor_cannot_tell_apart():
@@ -264,26 +273,33 @@ def test_the_rise_levels_are_checkpointed_and_resumed(tmp_path, sitting_file):
     assert saved["level"] == {"sitting": 3} and saved["outcomes"]["sitting"][:2] == [True, False]
 
 
-def test_the_recovery_rises_variant_names_the_recordings_it_needs(tmp_path, monkeypatch):
+def test_a_run_with_rises_names_the_recordings_it_needs(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
-    cfg = variant_train_config("recovery_rises", num_envs=4, iterations=1, num_threads=1)
-    assert cfg.env_overrides == {} and cfg.init_std == 0.5
+    cfg = variant_train_config("recovery", num_envs=4, iterations=1, num_threads=1,
+                               env_overrides={"rises.files": ["rises/sitting.npz"]})
     with pytest.raises(ValueError) as err:
         train(tmp_path / "run", cfg)
     assert str(err.value) == (
         "rises.files: no such file: rises/sitting.npz (write one with `hybrid-recovery getup "
         "record --pose POSE --episodes N --out FILE`)")
     assert not (tmp_path / "run").exists()  # refused before a file is written
-    # the recipe is the lineage's first part's plus the rises in 16 levels and the teacher
-    assert variant_overrides("recovery_rises") == {
-        **variant_overrides("recovery"), "rises.files": ["rises/sitting.npz", "rises/supine.npz"],
-        "rises.levels": 16}
-    assert (cfg.teacher.learning_rate, cfg.teacher.anneal_iterations) == (1e-4, 300)
+
+
+def test_the_recipe_is_the_lineages_first_part_then_its_own_rises_and_the_teacher(tmp_path):
+    cfg = variant_train_config("recovery_rises", num_envs=4, iterations=1, num_threads=1)
+    assert cfg.env_overrides == {} and cfg.init_std == 0.5 and cfg.stages is not None
+    assert variant_overrides("recovery_rises") == variant_overrides("recovery")
+    rises = stage_config(cfg, "rises", tmp_path, cfg.stages)
+    assert rises.env_overrides == {"rises.files": [str(tmp_path / "rises" / "sitting.npz"),
+                                                   str(tmp_path / "rises" / "supine.npz")],
+                                   "rises.levels": 16}
+    assert (rises.teacher.learning_rate, rises.teacher.anneal_iterations) == (1e-4, 300)
 
 
 @pytest.mark.skipif(not is_shipped(), reason="no shipped policy")
 def test_a_real_recording_splits_into_equal_stretches_of_its_move(tmp_path):
-    out = record_rises("supine", 1, tmp_path / "supine.npz", duration=20.0, seed=3)
+    out = record_rises("supine", 1, tmp_path / "supine.npz", duration=20.0, seed=3,
+                       policy="shipped")
     assert out["kept"] == 1
     rec = np.load(tmp_path / "supine.npz")
     pose, moves = load_rises(tmp_path / "supine.npz", 8, NQ, NV)

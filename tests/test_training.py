@@ -146,9 +146,9 @@ def test_policy_json_mismatch_is_refused(trained_run, tmp_path):
         load_policy_description(out / "policy.json")
 
 
-@pytest.mark.parametrize("variant", sorted(set(VARIANTS) - {"recovery_rises"}))
+@pytest.mark.parametrize("variant", sorted(VARIANTS))
 def test_variants_set_critic_width_and_rewards(variant):
-    """(``recovery_rises`` needs recordings: ``tests/test_rise_starts.py``.)"""
+    """(``recovery_rises`` in its first stage; its last: ``tests/test_staged_run.py``.)"""
     env_cfg = make_env_config(TrainConfig(variant=variant, num_envs=2, num_threads=1))
     env = RecoveryEnv(env_cfg)
     obs = env.get_observations()

@@ -150,3 +150,40 @@ def test_amendments_are_typed_and_ranged():
         with pytest.raises(ValueError) as info:
             amend_train_config(TrainConfig(), change)
         assert str(info.value) == message
+
+
+def test_a_second_writer_of_a_run_directory_is_refused_with_the_holders_pid(run_dir, capsys):
+    import subprocess
+    import sys
+
+    holder = subprocess.Popen(
+        [sys.executable, "-c", "import sys, time\nfrom hybrid_recovery.files import "
+         "exclusive_lock\nwith exclusive_lock(sys.argv[1]):\n    print('held', flush=True)\n"
+         "    time.sleep(60)\n", str(run_dir)], stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout is not None and holder.stdout.readline() == "held\n"
+        before = _snapshot(run_dir)
+        message = (f"{run_dir} is in use by another process (pid {holder.pid}); wait for it "
+                   "to end, or stop it (kill PID: it saves and stops)")
+        with pytest.raises(RuntimeError) as info:
+            train(run_dir, _cfg(iterations=3), resume=True)
+        assert str(info.value) == message
+        assert main(["train", "--run-dir", str(run_dir), "--resume", "--iterations", "3"]) == 2
+        assert capsys.readouterr().err == f"error: {message}\n"
+        assert _snapshot(run_dir) == before  # nothing written beside the holder
+    finally:
+        holder.kill()
+        holder.wait()
+
+
+def test_a_checkpoint_of_other_networks_is_refused_in_one_line(tmp_path):
+    run = tmp_path / "wide"
+    train(run, _cfg(iterations=1, hidden_dims=(64, 32)))
+    config = json.loads((run / "config.json").read_text())
+    config["train_config"]["hidden_dims"] = [32, 16]  # as another variant's networks
+    (run / "config.json").write_text(json.dumps(config))
+    with pytest.raises(ValueError) as info:
+        train(run, _cfg(iterations=2), resume=True)
+    text = str(info.value)
+    assert text.startswith(f"checkpoint {run / 'latest.pt'} (variant 'full') does not fit "
+                           "this model's actor: ") and "\n" not in text

@@ -1,11 +1,11 @@
 #!/usr/bin/env bash
 # Starts, or resumes, a training run in the background at the lowest CPU priority.
 #   training/run_background.sh [VARIANT] [RUN_DIR] [extra train options...]
-# Without arguments it trains the shipped policy's recipe (--variant recovery) in
-# runs/recovery. Progress: tail -f RUN_DIR.log ; curves: tensorboard --logdir RUN_DIR
+# Without arguments it trains the recipe (--variant recovery_rises, in stages) in
+# runs/recovery_rises. Progress: tail -f RUN_DIR.log ; curves: tensorboard --logdir RUN_DIR
 # Stop: kill PID (the iteration under way finishes and is saved; run this again to resume).
 set -euo pipefail
-variant=${1:-recovery}
+variant=${1:-recovery_rises}
 run_dir=${2:-runs/$variant}
 shift $(( $# > 2 ? 2 : $# ))
 if ! command -v hybrid-recovery >/dev/null; then

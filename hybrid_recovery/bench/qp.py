@@ -132,7 +132,8 @@ def solve_timing(push_force: float = 300.0, duration: float = 2.0,
 
 
 def push_trial(direction: str, force: float, stepping: bool) -> dict:
-    """One push from standing; the row of :func:`push_sweep`."""
+    """One push from standing; the row of :func:`push_sweep` (``diverged``: the
+    simulation diverged, never standing)."""
     dx, dy = DIRECTIONS[direction]
     cfg = default_config()
     cfg.stepping.enabled = stepping
@@ -145,7 +146,8 @@ def push_trial(direction: str, force: float, stepping: bool) -> dict:
             "standing": bool(result.standing), "strategy": controller.max_strategy.name.lower(),
             "steps": sum(s.touchdown is not None for s in controller.steps),
             "fell": bool(controller.went_down),
-            "fallbacks": sum(e.kind == "fallback" for e in controller.events)}
+            "fallbacks": sum(e.kind == "fallback" for e in controller.events),
+            "diverged": result.divergence is not None}
 
 
 def push_sweep(forces: Iterable[float] = range(0, 501, 50),
@@ -156,7 +158,7 @@ def push_sweep(forces: Iterable[float] = range(0, 501, 50),
 
     Returns:
         One dict per (stepping, direction, force): standing, strategy, steps, fell,
-        fallbacks.
+        fallbacks, diverged.
     """
     rows: list[dict] = []
     done: dict[tuple, dict] = {}
@@ -206,11 +208,14 @@ def sweep_table(rows: list[dict]) -> str:
                 r = cells.get(f)
                 if r is None:
                     marks.append(f"{'-':>6s}")
+                elif r.get("diverged"):
+                    marks.append(f"{'DIV':>6s}")
                 else:
                     label = {"stand": "stand", "ankle": "ankle", "hip": "hip", "step": "step"}[
                         r["strategy"]]
                     marks.append(f"{(label if r['standing'] else 'X' + label[:4]):>6s}")
             lines.append(f"{direction:>4s} {best:8.0f} " + " ".join(marks))
         lines.append("")
-    lines.append("cells: strategy used (X = fell, with the last strategy tried)")
+    lines.append("cells: strategy used (X = fell, with the last strategy tried; DIV = the "
+                 "simulation diverged)")
     return "\n".join(lines)

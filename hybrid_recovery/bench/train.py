@@ -22,7 +22,8 @@ def bench_train_config(n: int, seed: int, threads: int, overrides: dict[str, Any
                        backend: str = "batch", device: str = "cpu"):
     """The bench's TrainConfig: ``n`` envs, ``threads`` physics and torch threads, then
     ``overrides``: ``ppo.<field>`` keys set PPO settings, other keys TrainConfig fields
-    (e.g. ``torch_threads=1``, ``ppo.mixed_precision=true``).
+    (e.g. ``torch_threads=1``, ``ppo.mixed_precision=true``; unset, the
+    precision is chosen by the machine as in training).
 
     Raises:
         KeyError: naming an unknown setting.
@@ -71,14 +72,20 @@ def run_train_bench(n: int = 1024, repeat: int = 2, seed: int = 0, threads: int 
     from hybrid_recovery.envs import RecoveryEnv
     from hybrid_recovery.training.config import runner_dict
     from hybrid_recovery.training.distributed import Rank
-    from hybrid_recovery.training.runner import RecoveryRunner, make_env_config
+    from hybrid_recovery.training.runner import (
+        RecoveryRunner,
+        make_env_config,
+        update_precision,
+    )
 
     cfg = bench_train_config(n, seed, threads, overrides, backend, device)
     torch_threads = cfg.torch_threads or cfg.num_threads
     torch.set_num_threads(torch_threads)
     env = RecoveryEnv(make_env_config(cfg))
+    precision = update_precision(cfg, int(env.get_observations()["critic"].shape[1]),
+                                 env.num_actions)
     with contextlib.redirect_stdout(io.StringIO()):  # rsl-rl prints the networks
-        runner = RecoveryRunner(env, runner_dict(cfg), None, meta={},
+        runner = RecoveryRunner(env, runner_dict(cfg, precision), None, meta={},
                                 device=Rank().learner_device(cfg.device))
     totals: dict[str, float] = defaultdict(float)
     sync = device_sync(cfg.device)
@@ -110,7 +117,8 @@ def run_train_bench(n: int = 1024, repeat: int = 2, seed: int = 0, threads: int 
     ppo = cfg.ppo
     settings = {"backend": cfg.backend, "device": cfg.device,
                 "threads": cfg.num_threads, "torch_threads": torch_threads,
-                "mixed_precision": ppo.mixed_precision,
+                "mixed_precision": precision.mixed_precision,
+                "precision_choice": precision.reason,
                 "num_learning_epochs": ppo.num_learning_epochs,
                 "num_mini_batches": ppo.num_mini_batches, "symmetry": ppo.symmetry,
                 "omp_wait_policy": os.environ.get("OMP_WAIT_POLICY")}
@@ -118,7 +126,7 @@ def run_train_bench(n: int = 1024, repeat: int = 2, seed: int = 0, threads: int 
         name="train", title=f"PPO iteration, {n} envs × {cfg.num_steps_per_env} steps, "
         f"{cfg.num_threads} physics / {torch_threads} torch threads, "
         f"{ppo.num_learning_epochs} epochs × {ppo.num_mini_batches} mini-batches, "
-        f"{'bf16' if ppo.mixed_precision else 'fp32'} update (load average {load:.2f}); "
+        f"update {precision.reason} (load average {load:.2f}); "
         f"end to end {env_rate:.0f} env steps/s, physics only {physics_rate:.0f}",
         columns=("part", "s per iteration", "share"), rows=rows,
         figures={"num_envs": n, "env_steps_per_s": round(env_rate, 1),

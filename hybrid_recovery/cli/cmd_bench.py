@@ -5,9 +5,11 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 
 from hybrid_recovery.cli.registry import command, parse_overrides
-from hybrid_recovery.cli.validate import add_backend_options, integer, non_negative, positive
+from hybrid_recovery.cli.validate import add_backend_options, bounded, integer, positive
+from hybrid_recovery.evaluation.scenario import MAX_PUSH_FORCE
 
 LAYER_BENCHES = ("dynamics", "env", "terms", "train")
 """Targets of :data:`hybrid_recovery.bench.BENCHES`: a table, then one JSON line."""
@@ -36,10 +38,8 @@ def _bench_qp(args: argparse.Namespace) -> int:
     if args.mode in ("timing", "all"):
         solve_timing(push_force=args.timing_push, duration=args.timing_duration)
     if args.mode in ("sweep", "all"):
-        start, stop, step = (float(x) for x in args.forces.split(":"))
-        forces = [start + i * step for i in range(int(round((stop - start) / step)) + 1)]
         stepping = {"off": (False,), "on": (True,), "both": (False, True)}[args.stepping]
-        rows = push_sweep(forces, args.directions.split(","), stepping, results=args.results)
+        rows = push_sweep(args.forces, args.directions, stepping, results=args.results)
         print(sweep_table(rows))
     return 0
 
@@ -52,6 +52,41 @@ def _bench_deploy(args: argparse.Namespace) -> int:
     print(format_bench(result))
     print(json.dumps({"bench": "deploy", **result}))
     return 0 if result["controller"]["fault"] is None else 1
+
+
+def _force_grid(text: str) -> list[float]:
+    """An argparse type: ``start:stop:step`` [N] → the forces start, start + step, …, stop,
+    with 0 <= start <= stop <= ``MAX_PUSH_FORCE`` and step > 0 (step ignored when start =
+    stop)."""
+    try:
+        start, stop, step = (float(x) for x in text.split(":"))
+    except ValueError:
+        start = stop = step = math.nan
+    ok = (all(math.isfinite(v) for v in (start, stop, step))
+          and 0.0 <= start <= stop <= MAX_PUSH_FORCE and (step > 0.0 or start == stop))
+    if not ok:
+        raise argparse.ArgumentTypeError(
+            f"must be start:stop:step [N] with 0 <= start <= stop <= {MAX_PUSH_FORCE:g} and "
+            f"step > 0, got {text!r}")
+    count = 1 if start == stop else int(math.floor((stop - start) / step + 1e-9)) + 1
+    return [start + i * step for i in range(count)]
+
+
+def _directions(text: str) -> list[str]:
+    """An argparse type: comma-separated push directions of ``bench.qp.DIRECTIONS``, each
+    once."""
+    from hybrid_recovery.bench.qp import DIRECTIONS
+
+    names = tuple(DIRECTIONS)
+    picked = text.split(",")
+    for name in picked:
+        if name not in names:
+            raise argparse.ArgumentTypeError(
+                f"unknown direction {name!r}: choose from {','.join(names)}, got {text!r}")
+    for name in picked:
+        if picked.count(name) > 1:
+            raise argparse.ArgumentTypeError(f"duplicate value {name!r}")
+    return picked
 
 
 def _configure_bench(p: argparse.ArgumentParser) -> None:
@@ -68,7 +103,7 @@ def _configure_bench(p: argparse.ArgumentParser) -> None:
                        help="problem size, e.g. number of states (default: the bench's own)")
         t.add_argument("--repeat", type=integer(1), default=None,
                        help="timed runs, the best is kept")
-        t.add_argument("--seed", type=int, default=None)
+        t.add_argument("--seed", type=integer(0), default=None)
         if name in ("env", "train"):
             add_backend_options(t)
         if name == "terms":
@@ -84,11 +119,13 @@ def _configure_bench(p: argparse.ArgumentParser) -> None:
     qp = targets.add_parser("qp", help="QP balance baseline: solve time per tick and the "
                             "push-recovery sweep")
     qp.add_argument("mode", nargs="?", default="all", choices=("timing", "sweep", "all"))
-    qp.add_argument("--timing-push", type=non_negative, default=300.0,
-                    help="push of the timed run [N]")
+    qp.add_argument("--timing-push", type=bounded(0.0, MAX_PUSH_FORCE, "N"), default=300.0,
+                    help=f"push of the timed run [N], at most {MAX_PUSH_FORCE:g}")
     qp.add_argument("--timing-duration", type=positive, default=2.0, help="timed run [s]")
-    qp.add_argument("--forces", default="0:500:50", help="start:stop:step [N]")
-    qp.add_argument("--directions", default="+x,-x,+y,-y")
+    qp.add_argument("--forces", type=_force_grid, default="0:500:50",
+                    help=f"start:stop:step [N], 0 to {MAX_PUSH_FORCE:g}")
+    qp.add_argument("--directions", type=_directions, default="+x,-x,+y,-y",
+                    help="comma-separated, of +x,-x,+y,-y")
     qp.add_argument("--stepping", default="both", choices=("off", "on", "both"))
     qp.add_argument("--results", default=None,
                     help="JSON-lines file: rows are appended and reused (resumable sweep)")

@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 
 from hybrid_recovery.cli.registry import command
-from hybrid_recovery.cli.validate import non_negative
+from hybrid_recovery.cli.validate import bounded
+from hybrid_recovery.evaluation.scenario import MAX_PUSH_FORCE
 
 
 def _demo(args: argparse.Namespace) -> int:
@@ -25,7 +26,8 @@ def _configure_demo(p: argparse.ArgumentParser) -> None:
     p.add_argument("--no-video", action="store_true")
     p.add_argument("--balance", action="store_true",
                    help="only print the dynamics layer's balance report of a pushed robot")
-    p.add_argument("--push", type=non_negative, default=150.0, help="--balance: push force [N]")
+    p.add_argument("--push", type=bounded(0.0, MAX_PUSH_FORCE, "N"), default=150.0,
+                   help=f"--balance: push force [N], at most {MAX_PUSH_FORCE:g}")
 
 
 _demo.configure = _configure_demo  # type: ignore[attr-defined]

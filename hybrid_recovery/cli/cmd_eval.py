@@ -5,13 +5,21 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from hybrid_recovery.cli.errors import UsageError
+from hybrid_recovery.cli.errors import UsageError, sigterm_as_interrupt
 from hybrid_recovery.cli.registry import command
-from hybrid_recovery.cli.validate import check_model, integer, positive
-from hybrid_recovery.evaluation.scenario import SWEEP_DIRECTIONS
+from hybrid_recovery.cli.validate import Distinct, bounded, check_model, integer, positive
+from hybrid_recovery.evaluation.scenario import (
+    MAX_PUSH_FORCE,
+    PUSH_HEIGHT_RANGE,
+    SWEEP_DIRECTIONS,
+)
 
 
 def _scenarios(args: argparse.Namespace):
+    """The protocol's scenarios, restricted as asked; refuses a restriction that does not
+    apply and a ``--duration`` too short to show a recovery (:attr:`Scenario.min_duration`).
+    """
+    from hybrid_recovery.envs.terminations import SUCCESS_TIME
     from hybrid_recovery.evaluation.scenario import PROTOCOLS, check_pose
 
     kwargs = {"seed": args.seed}
@@ -31,7 +39,15 @@ def _scenarios(args: argparse.Namespace):
         if args.protocol == "poses" or (args.protocol == "pushes" and name == "heights"):
             raise UsageError(f"eval: --{name} does not apply to the {args.protocol} protocol")
         kwargs[name] = tuple(value)
-    return PROTOCOLS[args.protocol](args.trials, **kwargs)
+    scenarios = PROTOCOLS[args.protocol](args.trials, **kwargs)
+    longest = max(scenarios, key=lambda s: s.min_duration)
+    if args.duration is not None and args.duration < longest.min_duration:
+        why = (f"the push ends at {longest.min_duration - SUCCESS_TIME:g} s, then "
+               if longest.force > 0 else "")
+        raise UsageError(f"argument --duration: must be >= {longest.min_duration:g} s for the "
+                         f"{args.protocol} protocol ({why}{SUCCESS_TIME:g} s of standing "
+                         f"counts a recovery), got '{args.duration:g}'")
+    return scenarios
 
 
 def _run(args: argparse.Namespace, controller: str, out: Path) -> list[dict]:
@@ -65,26 +81,35 @@ def _check(args: argparse.Namespace, controllers: list[str]) -> None:
 
 def _eval(args: argparse.Namespace) -> int:
     from hybrid_recovery.evaluation.report import summary_table, write_report
+    from hybrid_recovery.evaluation.runner import LOCK_HINT
+    from hybrid_recovery.files import exclusive_lock
 
     _check(args, [args.controller])
     out = Path(args.out)
-    rows = _run(args, args.controller, out)
-    print(summary_table(rows))
-    report = write_report({args.controller: rows}, out, f"{args.protocol}: {args.controller}")
+    with exclusive_lock(out, LOCK_HINT):  # the results and the report: one writer
+        with sigterm_as_interrupt():
+            rows = _run(args, args.controller, out)
+        print(summary_table(rows))
+        report = write_report({args.controller: rows}, out,
+                              f"{args.protocol}: {args.controller}")
     print(f"results: {out / 'results.jsonl'}  report: {report}")
     return 0
 
 
 def _compare(args: argparse.Namespace) -> int:
     from hybrid_recovery.evaluation.report import summary_table, write_report
+    from hybrid_recovery.evaluation.runner import LOCK_HINT
+    from hybrid_recovery.files import exclusive_lock
 
     _check(args, args.controllers)
     out = Path(args.out)
     results = {}
-    for k, spec in enumerate(args.controllers):
-        results[spec] = _run(args, spec, out / f"c{k}")
-        print(f"== {spec}\n{summary_table(results[spec])}")
-    report = write_report(results, out, f"{args.protocol}: comparison")
+    with exclusive_lock(out, LOCK_HINT):  # every controller's results and the report
+        for k, spec in enumerate(args.controllers):
+            with sigterm_as_interrupt():
+                results[spec] = _run(args, spec, out / f"c{k}")
+            print(f"== {spec}\n{summary_table(results[spec])}")
+        report = write_report(results, out, f"{args.protocol}: comparison")
     print(f"report: {report}")
     return 0
 
@@ -93,15 +118,20 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--protocol", choices=["poses", "sweep", "pushes"], default="poses")
     p.add_argument("--trials", type=integer(1), default=100,
                    help="poses: trials in all; sweep/pushes: trials per cell")
-    p.add_argument("--poses", nargs="*", default=None, help="poses, sweep: only these start poses")
-    p.add_argument("--duration", type=positive, default=None, help="trial length [s]")
-    p.add_argument("--forces", type=float, nargs="+", default=None,
-                   help="sweep/pushes: only these push forces [N]")
+    p.add_argument("--poses", nargs="*", default=None, action=Distinct,
+                   help="poses, sweep: only these start poses")
+    p.add_argument("--duration", type=positive, default=None,
+                   help="trial length [s]; at least the push's end + 1 s (1 s without one)")
+    p.add_argument("--forces", type=bounded(0.0, MAX_PUSH_FORCE, "N"), nargs="+",
+                   default=None, action=Distinct,
+                   help=f"sweep/pushes: only these push forces [N], 0 to {MAX_PUSH_FORCE:g}")
     p.add_argument("--directions", nargs="+", default=None, choices=list(SWEEP_DIRECTIONS),
-                   help="sweep/pushes: only these push directions")
-    p.add_argument("--heights", type=float, nargs="+", default=None,
-                   help="sweep: only these push heights relative to the CoM [m]")
-    p.add_argument("--seed", type=int, default=0)
+                   action=Distinct, help="sweep/pushes: only these push directions")
+    p.add_argument("--heights", type=bounded(*PUSH_HEIGHT_RANGE, "m"), nargs="+",
+                   default=None, action=Distinct,
+                   help="sweep: only these push heights relative to the CoM [m], "
+                        f"{PUSH_HEIGHT_RANGE[0]:g} to {PUSH_HEIGHT_RANGE[1]:g}")
+    p.add_argument("--seed", type=integer(0), default=0)
     p.add_argument("--model", default=None, help="another robot MJCF (sim-to-sim)")
     p.add_argument("--contact", default="default", help="contact preset (sim-to-sim)")
     p.add_argument("--rotor-inertia", action="store_true",
@@ -121,7 +151,7 @@ def _configure_eval(p: argparse.ArgumentParser) -> None:
 
 
 def _configure_compare(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--controllers", nargs="+", required=True)
+    p.add_argument("--controllers", nargs="+", required=True, action=Distinct)
     p.add_argument("--out", default="results/compare")
     _common(p)
 

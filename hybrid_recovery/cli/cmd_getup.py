@@ -7,6 +7,8 @@ import json
 from pathlib import Path
 
 from hybrid_recovery.cli.registry import command
+from hybrid_recovery.cli.validate import bounded, integer, positive
+from hybrid_recovery.files import atomic_write_text, refuse_existing
 
 
 def _getup(args: argparse.Namespace) -> int:
@@ -17,7 +19,7 @@ def _record(args: argparse.Namespace) -> int:
     from hybrid_recovery.evaluation.getup_record import record_rises
 
     out = record_rises(args.pose, args.episodes, args.out, duration=args.duration,
-                       seed=args.seed)
+                       seed=args.seed, policy=args.policy, force=args.force)
     print(f"kept {out['kept']} of {out['attempted']} rises: {out['path']}")
     return 0
 
@@ -25,6 +27,8 @@ def _record(args: argparse.Namespace) -> int:
 def _map(args: argparse.Namespace) -> int:
     from hybrid_recovery.evaluation.handover_map import handover_map, map_table
 
+    if args.out:
+        refuse_existing(args.out, args.force)
     rows = handover_map(tuple(args.states), trials=args.trials, noise=args.noise,
                         duration=args.duration, seed=args.seed, policy=args.policy)
     table = map_table(rows)
@@ -32,7 +36,7 @@ def _map(args: argparse.Namespace) -> int:
     if args.out:
         out = Path(args.out)
         out.parent.mkdir(parents=True, exist_ok=True)
-        out.write_text(json.dumps(rows, indent=1) + "\n")
+        atomic_write_text(json.dumps(rows, indent=1) + "\n", out)
         print(f"rows: {out}")
     return 0
 
@@ -45,6 +49,9 @@ def _margins(args: argparse.Namespace) -> int:
         write_csv,
     )
 
+    for out in (args.out, args.plot):
+        if out:
+            refuse_existing(out, args.force)
     results = move_margins(None if args.move is None else [args.move], seeds=args.seed)
     print(margin_table(results))
     if args.out:
@@ -56,33 +63,42 @@ def _margins(args: argparse.Namespace) -> int:
 
 def _configure(p: argparse.ArgumentParser) -> None:
     from hybrid_recovery.evaluation.handover_map import HANDOVER_STATES
+    from hybrid_recovery.evaluation.scenario import MAX_NOISE
     from hybrid_recovery.sim.initial_states import POSES
 
     sub = p.add_subparsers(dest="getup_command", required=True)
     rec = sub.add_parser("record", help="record successful hybrid rises (npz)")
     rec.add_argument("--pose", required=True, choices=POSES, help="start pose")
-    rec.add_argument("--episodes", type=int, required=True, help="episodes to run")
-    rec.add_argument("--out", required=True, help=".npz file to write")
-    rec.add_argument("--duration", type=float, default=30.0, help="trial length [s]")
-    rec.add_argument("--seed", type=int, default=0, help="seed of the first episode")
+    rec.add_argument("--episodes", type=integer(1), required=True, help="episodes to run")
+    rec.add_argument("--policy", required=True,
+                     help="the policy after the hand-over: an exported policy (directory or "
+                          "policy.onnx), a training run directory (its newest checkpoint), or "
+                          "'shipped'")
+    rec.add_argument("--out", required=True, help=".npz file to write (.npz is added to "
+                     "another suffix)")
+    rec.add_argument("--force", action="store_true", help="replace an existing --out")
+    rec.add_argument("--duration", type=positive, default=30.0, help="trial length [s]")
+    rec.add_argument("--seed", type=integer(0), default=0, help="seed of the first episode")
     rec.set_defaults(_getup=_record)
     hmap = sub.add_parser("map", help="the policy's success from each hand-over state")
     hmap.add_argument("--states", nargs="+", default=list(HANDOVER_STATES),
                       choices=list(HANDOVER_STATES))
-    hmap.add_argument("--trials", type=int, default=20, help="trials per state")
-    hmap.add_argument("--noise", type=float, default=1.0,
+    hmap.add_argument("--trials", type=integer(1), default=20, help="trials per state")
+    hmap.add_argument("--noise", type=bounded(0.0, MAX_NOISE), default=1.0,
                       help="scale of the paper's initialisation noise")
-    hmap.add_argument("--duration", type=float, default=15.0, help="trial length [s]")
-    hmap.add_argument("--seed", type=int, default=0)
+    hmap.add_argument("--duration", type=positive, default=15.0, help="trial length [s]")
+    hmap.add_argument("--seed", type=integer(0), default=0)
     hmap.add_argument("--policy", default="shipped", help="policy.onnx or its directory")
     hmap.add_argument("--out", default=None, help="JSON file for the rows")
+    hmap.add_argument("--force", action="store_true", help="replace an existing --out")
     hmap.set_defaults(_getup=_map)
     marg = sub.add_parser("margins", help="the static margin table along each move")
     marg.add_argument("--move", default=None, help="one move (default: every move)")
-    marg.add_argument("--seed", type=int, nargs="+", default=[0],
+    marg.add_argument("--seed", type=integer(0), nargs="+", default=[0],
                       help="seeds of the noisy starts (the table pools them)")
     marg.add_argument("--out", default=None, help="CSV file for every checked state")
     marg.add_argument("--plot", default=None, help="PNG: margin against time per move")
+    marg.add_argument("--force", action="store_true", help="replace an existing --out or --plot")
     marg.set_defaults(_getup=_margins)
 
 

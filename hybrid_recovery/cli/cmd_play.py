@@ -5,10 +5,23 @@ from __future__ import annotations
 import argparse
 
 from hybrid_recovery.cli.registry import command
-from hybrid_recovery.cli.validate import check_model, finite, non_negative, positive
+from hybrid_recovery.cli.validate import (
+    bounded,
+    check_model,
+    check_push_time,
+    finite,
+    integer,
+    non_negative,
+    positive,
+)
+from hybrid_recovery.evaluation.scenario import MAX_PUSH_FORCE
 
 
 def _play(args: argparse.Namespace) -> int:
+    from hybrid_recovery.files import refuse_existing
+
+    check_push_time(args.push, args.push_time, args.seconds)
+    refuse_existing(args.out, args.force)
     if args.controller is not None:
         return _play_controller(args)
     from hybrid_recovery.evaluation.play import onnx_policy, play
@@ -56,14 +69,16 @@ def _configure_play(p: argparse.ArgumentParser) -> None:
     p.add_argument("--pose", default="standing", choices=POSES, help="start pose")
     p.add_argument("--seconds", type=positive, default=5.0, help="episode length [s]")
     p.add_argument("--out", default="play.mp4", help="video file to write")
-    p.add_argument("--push", type=non_negative, default=0.0, metavar="N",
-                   help="torso push force [N] at --push-time (0: no push)")
+    p.add_argument("--force", action="store_true", help="overwrite an existing --out file")
+    p.add_argument("--push", type=bounded(0.0, MAX_PUSH_FORCE, "N"), default=0.0, metavar="N",
+                   help=f"torso push force [N] at --push-time (0: no push), at most "
+                        f"{MAX_PUSH_FORCE:g}")
     p.add_argument("--push-time", type=non_negative, default=1.0, help="[s]")
     p.add_argument("--push-duration", type=positive, default=0.1, help="[s]")
     p.add_argument("--push-angle", type=finite, default=0.0,
                    help="push direction in the robot's heading frame [deg]: 0 forward, 90 left")
     p.add_argument("--fps", type=int, default=25, choices=(25, 50))
-    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--seed", type=integer(0), default=0)
     p.add_argument("--randomize", action="store_true",
                    help="domain-randomised physics instead of nominal")
     p.add_argument("--model", default=None, help="robot MJCF (default: the project's H1-2)")

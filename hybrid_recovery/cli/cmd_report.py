@@ -5,21 +5,28 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from hybrid_recovery.cli.errors import UsageError
 from hybrid_recovery.cli.registry import command
 
 
 def _report(args: argparse.Namespace) -> int:
     from hybrid_recovery.evaluation.ablation import ablation_table
     from hybrid_recovery.evaluation.report import write_report
-    from hybrid_recovery.evaluation.runner import header_provenance, load_results
+    from hybrid_recovery.evaluation.runner import HEADER_KEY, header_provenance, load_results
     from hybrid_recovery.training.record import plot_curves
 
+    if not args.results and not args.runs:
+        raise UsageError("report: nothing to report; give results.jsonl files of eval or "
+                         "compare, or training runs with --runs")
     results, provenance = {}, {}
     for path in args.results:
         rows = load_results(path)
-        header = next((r for r in rows if r.get("key") == "__header__"), {})
+        header = next((r for r in rows if r.get("key") == HEADER_KEY), None)
+        if header is None:  # an empty report would look like a run without trials
+            raise ValueError(f"{path} is not a results file of this harness (no header "
+                             "line); give the results.jsonl that eval or compare wrote")
         label = f"{header.get('controller', Path(path).parent.name)} ({Path(path).parent.name})"
-        results[label] = [r for r in rows if r.get("key") != "__header__"]
+        results[label] = [r for r in rows if r.get("key") != HEADER_KEY]
         if (policy := header_provenance(header)) is not None:
             provenance[label] = policy
     runs = dict(item.split("=", 1) if "=" in item else (Path(item).name, item)

@@ -37,15 +37,22 @@ def _train(args: argparse.Namespace) -> int:
     given |= {"variant"} if args.variant else set()
     given |= {"ppo"} if args.symmetry or args.mixed_precision is not None else set()
     run_dir = Path(args.run_dir or f"runs/{variant}")
-    train(run_dir, cfg, resume=args.resume, amend=parse_overrides(args.amend),
-          force=args.force, given=given)
+    options = dict(resume=args.resume, amend=parse_overrides(args.amend), force=args.force,
+                   given=given)
+    from hybrid_recovery.recipe.staged_run import is_staged_run, train_staged
+
+    if is_staged_run(run_dir) if args.resume else cfg.stages is not None:
+        train_staged(run_dir, cfg, **options)  # type: ignore[arg-type]
+    else:
+        train(run_dir, cfg, **options)  # type: ignore[arg-type]
     return 0
 
 
 def _configure_train(p: argparse.ArgumentParser) -> None:
     p.add_argument("--variant", default=None,
-                   help="recovery (the shipped policy's recipe) | recovery_rises (it with "
-                        "starts along recorded rises, see training/README.md) | full (the "
+                   help="recovery_rises (the recipe in stages: recovery, its own rises "
+                        "recorded, starts along them and the teacher; training/README.md) | "
+                        "recovery (its first stage alone) | full (the "
                         "paper's, the default) | reduced | no_privileged | no_capture_point | "
                         "no_curriculum")
     p.add_argument("--num-envs", type=integer(1), default=None, help="default 1024")
@@ -57,7 +64,7 @@ def _configure_train(p: argparse.ArgumentParser) -> None:
                    help="default 50 (recovery: 25)")
     p.add_argument("--threads", type=integer(1), default=None,
                    help="physics threads, and torch threads unless --torch-threads is given "
-                        "(default 2)")
+                        "(default: the CPUs this process may run on)")
     p.add_argument("--torch-threads", type=integer(1), default=None,
                    help="torch threads for inference and the PPO update (default: --threads)")
     add_backend_options(p)
@@ -70,7 +77,8 @@ def _configure_train(p: argparse.ArgumentParser) -> None:
     p.add_argument("--symmetry", action="store_true", help="left/right mirror augmentation")
     p.add_argument("--mixed-precision", action=argparse.BooleanOptionalAction, default=None,
                    help="bf16 autocast for the PPO update, float32 weights and optimiser "
-                        "(default on; recovery: off)")
+                        "(default: the faster of the two measured on this CPU at every "
+                        "start and resume; recovery: off)")
     p.add_argument("--init-std", type=positive, default=None,
                    help="initial action noise std (the paper: 1.0; recovery: 0.5)")
     p.add_argument("--set", nargs="*", default=[], metavar="KEY=VALUE",

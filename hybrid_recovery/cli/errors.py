@@ -6,9 +6,13 @@ on stderr. The traceback is printed only with ``--debug``.
 
 from __future__ import annotations
 
+import contextlib
+import os
+import signal
 import sys
+import threading
 import traceback
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 
 EXIT_ERROR = 2
 """Exit status of a refused input or a failed command (as argparse's usage errors)."""
@@ -23,6 +27,33 @@ faults); any other exception is a bug and is named with its type and a hint."""
 
 class UsageError(ValueError):
     """A command-line input that is refused before any work is done; the message says why."""
+
+
+@contextlib.contextmanager
+def sigterm_as_interrupt() -> Iterator[None]:
+    """While inside, SIGTERM (``kill``) raises ``KeyboardInterrupt`` in this process, as
+    Ctrl-C does: one line, exit :data:`EXIT_INTERRUPTED`, finished work kept. A process
+    forked meanwhile (an evaluation worker) ends at once and silently on SIGTERM, as with
+    no handler. Off the main thread, where Python takes no signal handlers, nothing
+    changes; the earlier handler is restored on leaving."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    owner = os.getpid()
+
+    def handler(signum: int, frame: object) -> None:
+        del frame
+        if os.getpid() != owner:  # a forked worker: the default, end without a word
+            signal.signal(signum, signal.SIG_DFL)
+            os.kill(os.getpid(), signum)
+            return
+        raise KeyboardInterrupt
+
+    previous = signal.signal(signal.SIGTERM, handler)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def error_message(err: BaseException) -> str:

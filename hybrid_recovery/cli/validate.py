@@ -11,6 +11,8 @@ import math
 from collections.abc import Callable
 from pathlib import Path
 
+from hybrid_recovery.cli.errors import UsageError
+
 
 def integer(minimum: int) -> Callable[[str], int]:
     """An argparse type: an integer ≥ ``minimum``."""
@@ -45,6 +47,38 @@ def number(minimum: float, inclusive: bool = False) -> Callable[[str], float]:
     return parse
 
 
+def bounded(low: float, high: float, unit: str = "") -> Callable[[str], float]:
+    """An argparse type: a finite number in [``low``, ``high``] (``unit`` for the message,
+    e.g. ``must be a finite number from 0 to 1000 N, got '1e9'``)."""
+    span = f"from {low:g} to {high:g}" + (f" {unit}" if unit else "")
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not (math.isfinite(value) and low <= value <= high):
+            raise argparse.ArgumentTypeError(f"must be a finite number {span}, got {text!r}")
+        return value
+
+    return parse
+
+
+class Distinct(argparse.Action):
+    """An argparse action for a list option (``nargs``): refuses a value given twice,
+    ``argument --forces: duplicate value '300'`` (numbers compared by value)."""
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace,
+                 values, option_string: str | None = None) -> None:
+        seen = set()
+        for value in values:
+            if value in seen:
+                text = f"{value:g}" if isinstance(value, float) else str(value)
+                raise argparse.ArgumentError(self, f"duplicate value {text!r}")
+            seen.add(value)
+        setattr(namespace, self.dest, values)
+
+
 def finite(text: str) -> float:
     """An argparse type: any finite number."""
     try:
@@ -54,6 +88,18 @@ def finite(text: str) -> float:
     if not math.isfinite(value):
         raise argparse.ArgumentTypeError(f"must be a finite number, got {text!r}")
     return value
+
+
+def check_push_time(force: float, push_time: float, seconds: float) -> None:
+    """Refuses a push that starts when the run is over: it would never be applied.
+
+    Raises:
+        UsageError: ``argument --push-time: the push starts at 6 s, when the 5 s run is
+            over (--seconds)``.
+    """
+    if force > 0 and push_time >= seconds:
+        raise UsageError(f"argument --push-time: the push starts at {push_time:g} s, when "
+                         f"the {seconds:g} s run is over (--seconds)")
 
 
 def check_model(path: str | None) -> None:

@@ -1,15 +1,20 @@
 """Typed settings of the QP balance controller and the hybrid supervisor (units in each field).
 
 ``default_config()`` returns the tuned values; override fields with
-``dataclasses.replace`` (or attribute assignment on a fresh config).
+``dataclasses.replace`` (or attribute assignment on a fresh config). Every number is
+checked finite and in its range (:data:`RANGES`) when a config is constructed.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from hybrid_recovery.checks import FINITE, NON_NEGATIVE, POSITIVE, UNIT, Range, check_fields
 from hybrid_recovery.control.diagnostics import Capturability
 from hybrid_recovery.robot.constants import UPRIGHT_COM_HEIGHT
+
+COUNT: Range = (1, True, float("inf"))
+"""An integer ≥ 1."""
 
 
 @dataclass
@@ -65,6 +70,9 @@ class QpConfig:
     max_iter: int = 50
     """proxsuite outer (and inner) iteration cap; reaching it counts as a failure."""
 
+    def __post_init__(self) -> None:
+        check_config(self)
+
 
 @dataclass
 class DcmConfig:
@@ -88,6 +96,9 @@ class DcmConfig:
     """|r_cmp − ξ_ref| above which a tick counts as ankle strategy [m]."""
     hip_threshold: float = 0.002
     """CMP offset outside the CoP region above which a tick counts as hip strategy [m]."""
+
+    def __post_init__(self) -> None:
+        check_config(self)
 
 
 @dataclass
@@ -131,6 +142,9 @@ class SteppingConfig:
     max_steps: int = 4
     """Most steps per recovery; N of the N-step capturability check."""
 
+    def __post_init__(self) -> None:
+        check_config(self)
+
 
 @dataclass
 class BalanceConfig:
@@ -147,6 +161,9 @@ class BalanceConfig:
     """Normal force above which a sole counts as in contact [N]."""
     damping_gain: float = 1.0
     """Safe command when not applicable: τ = −k KD q̇ [-] (KD from constants)."""
+
+    def __post_init__(self) -> None:
+        check_config(self)
 
 
 @dataclass
@@ -178,6 +195,57 @@ class SupervisorConfig:
     evaluation's ``learned`` controller uses 20 ms)."""
     action_scale: float = 0.3
     """q_ref = q* + scale · a [rad]."""
+
+    def __post_init__(self) -> None:
+        check_config(self)
+
+
+RANGES: dict[str, dict[str, Range]] = {
+    "QpConfig": {
+        "w_linear_momentum": NON_NEGATIVE, "w_angular_momentum": NON_NEGATIVE,
+        "w_swing_foot": NON_NEGATIVE, "w_pelvis_orientation": NON_NEGATIVE,
+        "w_posture_legs": NON_NEGATIVE, "w_posture_upper": NON_NEGATIVE,
+        "w_qacc": POSITIVE, "w_force": POSITIVE, "pelvis_kp": NON_NEGATIVE,
+        "pelvis_kd": NON_NEGATIVE, "posture_kp": NON_NEGATIVE, "posture_kd": NON_NEGATIVE,
+        "swing_kp": NON_NEGATIVE, "swing_kd": NON_NEGATIVE, "contact_kd": NON_NEGATIVE,
+        "limit_horizon": POSITIVE, "limit_margin": NON_NEGATIVE, "friction": POSITIVE,
+        "max_corner_force": POSITIVE, "torque_limit_scale": POSITIVE, "eps_abs": POSITIVE,
+        "max_iter": COUNT},
+    "DcmConfig": {
+        "k_xi": NON_NEGATIVE, "cop_margin": NON_NEGATIVE,
+        "max_angular_momentum_rate": NON_NEGATIVE, "max_angular_momentum": NON_NEGATIVE,
+        "angular_momentum_damping": NON_NEGATIVE, "height_kp": NON_NEGATIVE,
+        "height_kd": NON_NEGATIVE, "ankle_threshold": NON_NEGATIVE,
+        "hip_threshold": NON_NEGATIVE},
+    "SteppingConfig": {
+        "swing_time": POSITIVE, "step_length": POSITIVE, "foot_size": NON_NEGATIVE,
+        "min_width": NON_NEGATIVE, "lateral_offset": FINITE, "target_margin": NON_NEGATIVE,
+        "swing_height": NON_NEGATIVE, "touchdown_depth": NON_NEGATIVE,
+        "hip_margin_scale": POSITIVE, "lookahead": NON_NEGATIVE, "replan_until": UNIT,
+        "replan_period": POSITIVE, "region_vertices": (3, True, float("inf")),
+        "touchdown_force": NON_NEGATIVE, "touchdown_timeout": POSITIVE,
+        "min_double_support": NON_NEGATIVE, "max_steps": NON_NEGATIVE},
+    "BalanceConfig": {
+        "min_com_height": POSITIVE, "max_tilt": POSITIVE, "foot_contact_force": NON_NEGATIVE,
+        "damping_gain": NON_NEGATIVE},
+    "SupervisorConfig": {
+        "to_policy_delay": NON_NEGATIVE, "to_qp_dwell": NON_NEGATIVE, "to_qp_margin": FINITE,
+        "to_qp_max_com_speed": POSITIVE, "to_qp_min_com_height": POSITIVE,
+        "to_policy_blend": NON_NEGATIVE, "to_qp_blend": NON_NEGATIVE, "policy_dt": POSITIVE,
+        "policy_delay": NON_NEGATIVE, "action_scale": POSITIVE},
+}
+"""Class name → field → range; every number must be finite."""
+
+
+def check_config(config: QpConfig | DcmConfig | SteppingConfig | BalanceConfig
+                 | SupervisorConfig) -> None:
+    """Checks every number of a control config: finite and in its range (:data:`RANGES`).
+
+    Raises:
+        ValueError: ``<Class>.<field> must be ..., got <value>``, e.g.
+            ``QpConfig.friction must be > 0, got 0.0``.
+    """
+    check_fields(config, RANGES[type(config).__name__])
 
 
 def default_config() -> BalanceConfig:

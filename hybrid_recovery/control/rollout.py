@@ -19,6 +19,7 @@ import numpy as np
 
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.mjcf import default_qpos
+from hybrid_recovery.sim.divergence import divergence
 
 STANDING_MAX_TILT_DEG = 72.0
 """Success: torso tilt from vertical below this [deg]."""
@@ -79,6 +80,8 @@ class EpisodeResult:
         diagnostics: The controller's per-tick ``diagnostics`` (empty if it has none).
         max_torque_ratio: max_t,i |τ_i| / τ_max,i.
         finite: All torques were finite.
+        divergence: Why and when the simulation diverged (the episode stopped there and
+            is not standing), None if it did not.
     """
 
     standing: bool
@@ -89,6 +92,7 @@ class EpisodeResult:
     diagnostics: list = field(default_factory=list)
     max_torque_ratio: float = 0.0
     finite: bool = True
+    divergence: str | None = None
 
 
 def standing_data(model: mujoco.MjModel) -> mujoco.MjData:
@@ -153,7 +157,8 @@ def run_episode(
             [m]; for controllers that cannot stand up again. None runs to the end.
 
     Returns:
-        The :class:`EpisodeResult`.
+        The :class:`EpisodeResult`; an episode whose simulation diverged
+        (:func:`~hybrid_recovery.sim.divergence.divergence`) stops there, not standing.
     """
     data = standing_data(model) if data is None else data
     rng = np.random.default_rng(seed)
@@ -163,6 +168,7 @@ def run_episode(
     com = np.empty((steps + 1, 3))
     com[0] = data.subtree_com[1]
     diags, ratio, finite = [], 0.0, True
+    diverged: str | None = None
     for k in range(steps):
         if push is not None:
             on = push.start <= data.time < push.start + push.duration
@@ -175,11 +181,17 @@ def run_episode(
         diag = getattr(controller, "diagnostics", None)
         if keep_diagnostics and diag is not None:
             diags.append(diag)
+        t = data.time
         mujoco.mj_step(model, data)
+        if (diverged := divergence(data)) is not None:
+            com = com[: k + 1]
+            diverged += f" at t = {t + model.opt.timestep:.3f} s"
+            break
         com[k + 1] = data.subtree_com[1]
         if stop_below is not None and com[k + 1, 2] < stop_below:
             com = com[: k + 2]
             break
     mujoco.mj_forward(model, data)
     ok, height, tilt, other = standing_state(model, data)
-    return EpisodeResult(ok, height, tilt, other, com, diags, ratio, finite)
+    return EpisodeResult(ok and diverged is None, height, tilt, other, com, diags, ratio,
+                         finite, diverged)

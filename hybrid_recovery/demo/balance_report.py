@@ -10,6 +10,7 @@ from hybrid_recovery.dynamics.capturability import zero_step_margin
 from hybrid_recovery.dynamics.support import support_polygon
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.mjcf import default_qpos, load_mjmodel
+from hybrid_recovery.sim.divergence import SimulationDiverged, divergence
 
 _FOOT_CORNERS = [f"{side}_foot_{c}" for side in ("left", "right") for c in ("fl", "fr", "rl", "rr")]
 
@@ -26,6 +27,10 @@ def balance_report(push_force: float = 150.0, push_duration: float = 0.1,
     Returns:
         One row every 0.1 s: time [s], CoM height [m], capture point ξ [m], its 0-step
         margin to the feet polygon [m] (positive inside), |L| [kg·m²/s].
+
+    Raises:
+        SimulationDiverged: the push made the simulation diverge
+            (:func:`~hybrid_recovery.sim.divergence.divergence`).
     """
     model = load_mjmodel()
     data = mujoco.MjData(model)
@@ -48,6 +53,9 @@ def balance_report(push_force: float = 150.0, push_duration: float = 0.1,
                          "margin": float(zero_step_margin(state.capture_point, feet)),
                          "angular_momentum": float(np.linalg.norm(state.angular_momentum))})
         mujoco.mj_step(model, data)
+        if (why := divergence(data)) is not None:
+            raise SimulationDiverged(f"the simulation diverged at t = {t + dt:.3f} s ({why}) "
+                                     f"under the {push_force:g} N push")
     return rows
 
 

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from hybrid_recovery.dynamics import RobotModel
+from hybrid_recovery.files import atomic_path, atomic_write
 
 COLUMNS = ("t", "phase", "com_x", "com_y", "com_z", "com_vx", "com_vy", "com_vz", "cp_x",
            "cp_y", "pelvis_z", "tilt_deg", "push")
@@ -42,12 +43,16 @@ class BalanceTrace:
         return np.array(values) if name == "phase" else np.array(values, dtype=float)
 
     def write_csv(self, path: str | Path) -> Path:
+        """The rows as CSV with a header of :data:`COLUMNS`, written atomically."""
         path = Path(path)
-        with path.open("w", newline="") as f:
+
+        def write(f) -> None:
             writer = csv.writer(f)
             writer.writerow(COLUMNS)
             for row in self.rows:
                 writer.writerow([row[0], row[1], *(f"{v:.6g}" for v in row[2:])])
+
+        atomic_write(path, "w", write)
         return path
 
     def plot(self, path: str | Path, title: str = "") -> Path:
@@ -77,6 +82,7 @@ class BalanceTrace:
             ax.grid(alpha=0.3)
         axes[0].set_title(title)
         fig.tight_layout()
-        fig.savefig(path, dpi=100)
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=100)
         plt.close(fig)
         return Path(path)

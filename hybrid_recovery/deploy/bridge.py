@@ -23,8 +23,8 @@ import numpy as np
 
 from hybrid_recovery.deploy.fast_dds import FastLink
 from hybrid_recovery.deploy.policy_runner import PolicyRunner
-from hybrid_recovery.deploy.robot_io import LowStateReading
-from hybrid_recovery.deploy.state_machine import Phase, SafetyConfig, SafetyStateMachine
+from hybrid_recovery.deploy.robot_io import JointCommand, LowStateReading
+from hybrid_recovery.deploy.state_machine import Fault, Phase, SafetyConfig, SafetyStateMachine
 from hybrid_recovery.deploy.timing import LoopStats, PeriodicClock, try_realtime
 from hybrid_recovery.deploy.wire import decode_low_state, encode_low_cmd
 from hybrid_recovery.robot.limits import SafetyLimits
@@ -38,6 +38,17 @@ NO_STATE_HINT = (
     "real H1-2: its stack uses cyclonedds 0.10.x, which does not talk to cyclonedds 11 "
     "(see deploy/README.md)."
 )
+
+
+WRITER_WATCH_S = 0.5
+"""The controller watches ``rt/lowcmd`` for another writer for this long after joining the
+domain before it commands [s]: DDS discovery of the peers takes tens of milliseconds on
+one host, and the robot's state can arrive first."""
+
+
+class OtherWriterError(RuntimeError):
+    """Another process writes the topic this side would write (``rt/lowcmd`` for the
+    controller, ``rt/lowstate`` for the simulated robot) on this domain: nothing was sent."""
 
 
 class ControllerError(RuntimeError):
@@ -65,7 +76,8 @@ class ControllerReport:
 def run_controller(policy_dir: str | Path, domain_id: int = 0, interface: str = "lo",
                    seconds: float | None = None, safety: SafetyConfig | None = None,
                    wait_timeout_s: float = 10.0, damping_s: float = 0.5,
-                   realtime: bool = False) -> ControllerReport:
+                   realtime: bool = False,
+                   writer_watch_s: float = WRITER_WATCH_S) -> ControllerReport:
     """Runs the controller until ``seconds`` after the first state, a fault, or Ctrl-C.
 
     Then it sends damping commands for ``damping_s`` and returns. An exception inside
@@ -73,18 +85,26 @@ def run_controller(policy_dir: str | Path, domain_id: int = 0, interface: str = 
     commands are sent for ``damping_s`` first, then :class:`ControllerError` is raised
     with the cause.
 
+    Before its first command it watches ``rt/lowcmd`` for another writer until
+    ``writer_watch_s`` after joining the domain, and refuses to command if there is one
+    (:class:`OtherWriterError`); commands of another writer arriving later are a fault
+    (:attr:`Fault.OTHER_WRITER`: damping).
+
     Raises:
         PolicyMismatchError: the policy does not match the robot (checked first).
         TimeoutError: no state arrived within ``wait_timeout_s``.
+        OtherWriterError: another process writes ``rt/lowcmd`` (nothing was sent).
         ControllerError: the loop failed (after damping was sent).
     """
     sm = SafetyStateMachine(safety or SafetyConfig(SafetyLimits.from_robot()))
     runner = PolicyRunner(policy_dir, target_range_factor=sm.config.q_ref_range_factor)
     link = FastLink(domain_id, interface, "controller")
+    t_joined = time.monotonic()
     scheduling = try_realtime() if realtime else "normal"
     if link.wait_for(wait_timeout_s) is None and link.latest() is None:
         raise TimeoutError(NO_STATE_HINT.format(timeout=wait_timeout_s, domain=domain_id,
                                                 iface=interface))
+    _refuse_other_writers(link, t_joined + writer_watch_s, domain_id, interface)
     clock = PeriodicClock(sm.config.period_s)
     stats = LoopStats(sm.config.period_s)
     state: LowStateReading | None = None
@@ -109,7 +129,13 @@ def run_controller(policy_dir: str | Path, domain_id: int = 0, interface: str = 
                 policy = runner.step(state)
                 stats.inference.append(time.monotonic() - t_inf)
             before = sm.phase
-            cmd = sm.tick(now, state, policy)
+            others = link.other_writes() if before is not Phase.DAMPING else []
+            cmd: JointCommand | None
+            if others:
+                cmd = sm.fail_safe(now, f"another writer commands on rt/lowcmd "
+                                        f"({', '.join(others)})", Fault.OTHER_WRITER)
+            else:
+                cmd = sm.tick(now, state, policy)
             if sm.phase is Phase.POLICY and before is not Phase.POLICY:
                 runner.reset()
             if cmd is not None and state is not None:
@@ -143,6 +169,21 @@ def run_controller(policy_dir: str | Path, domain_id: int = 0, interface: str = 
         seconds=time.monotonic() - t_start, stats=stats.summary())
 
 
+def _refuse_other_writers(link: FastLink, until: float, domain_id: int, interface: str,
+                          refusing: str = "refusing to command the robot") -> None:
+    """Raises :class:`OtherWriterError` if another writer of the link's topic is matched
+    (or its messages arrive) before ``until`` (``time.monotonic()``) or now."""
+    while True:
+        others = sorted(set(link.other_writers()) | set(link.other_writes()))
+        if others:
+            raise OtherWriterError(
+                f"another writer is on {link.out_topic} (domain {domain_id}, interface "
+                f"{interface}: {', '.join(others)}); {refusing}: stop it first")
+        if time.monotonic() >= until:
+            return
+        time.sleep(0.01)
+
+
 def _send_damping(link: FastLink, sm: SafetyStateMachine, state: LowStateReading | None,
                   cause: str, damping_s: float) -> int:
     """Damping (kp = 0) for ``damping_s`` after a failure of the loop; returns how many
@@ -169,6 +210,9 @@ class SimRobotReport:
     scheduling: str
     published: int
     seconds: float
+    commands_received: int
+    """Commands DDS delivered; the loop applies the newest at each step, so a command
+    followed by another within one step (2 ms, or a stall of the loop) is superseded."""
     commands_accepted: int
     commands_rejected: int
     first_tick: int
@@ -184,11 +228,18 @@ def serve_sim_robot(cfg: SimRobotConfig | None = None, domain_id: int = 0,
                     interface: str = "lo", seconds: float = 30.0, idle_exit_s: float = 1.0,
                     realtime: bool = False) -> SimRobotReport:
     """Runs the simulated robot in real time for ``seconds``, or until no command arrived
-    for ``idle_exit_s`` after the controller went to damping (all kp = 0)."""
+    for ``idle_exit_s`` after the controller went to damping (all kp = 0).
+
+    Raises:
+        OtherWriterError: another robot publishes ``rt/lowstate`` on the domain (watched
+            for :data:`WRITER_WATCH_S` before the first state is published).
+    """
     from hybrid_recovery.deploy.sim_robot import SimRobot
 
     robot = SimRobot(cfg)
     link = FastLink(domain_id, interface, "robot")
+    _refuse_other_writers(link, time.monotonic() + WRITER_WATCH_S, domain_id, interface,
+                          "refusing to publish a second robot's state")
     scheduling = try_realtime() if realtime else "normal"
     substeps = 2
     clock = PeriodicClock(substeps * robot.cfg.physics_dt)
@@ -221,7 +272,8 @@ def serve_sim_robot(cfg: SimRobotConfig | None = None, domain_id: int = 0,
             break
     return SimRobotReport(
         scheduling=scheduling, published=published, seconds=time.monotonic() - clock.t0,
-        commands_accepted=robot.accepted, commands_rejected=robot.rejected,
+        commands_received=link.count, commands_accepted=robot.accepted,
+        commands_rejected=robot.rejected,
         first_tick=first_tick, last_tick=robot.tick,
         standing=standing if standing is not None else (_pose(robot) if positioned else None),
         final=_pose(robot), stats=stats.summary())

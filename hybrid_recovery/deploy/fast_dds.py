@@ -12,6 +12,7 @@ mismatch. Topic types, names and QoS are those of the protocol package, so a pee
 
 from __future__ import annotations
 
+import os
 import threading
 import time
 from dataclasses import dataclass
@@ -88,6 +89,10 @@ class FastLink:
     """One side of the robot link on a DDS domain: writes one topic, keeps the newest of
     the other, both as wire bytes.
 
+    Its writer carries ``hybrid-recovery <side> pid <pid>`` as DDS user data, and it
+    watches its own topic for other writers (:meth:`other_writers`, :meth:`other_writes`):
+    two controllers on one robot would both command it.
+
     Args:
         domain_id: DDS domain id (the robot uses 0).
         interface: Network interface, ``"lo"`` for a simulated robot.
@@ -108,13 +113,22 @@ class FastLink:
         types = {LOW_CMD_TOPIC: LowCmd_, LOW_STATE_TOPIC: LowState_}
         out_topic = dds.topic.Topic(self._participant, out_name, types[out_name])
         in_topic = dds.topic.Topic(self._participant, in_name, types[in_name])
-        self._writer = dds.pub.DataWriter(self._participant, out_topic)
+        policy = dds.qos.Policy
+        self.name = f"hybrid-recovery {side} pid {os.getpid()}"
+        """How other processes see this link's writer (its DDS user data)."""
+        self._writer = dds.pub.DataWriter(self._participant, out_topic, qos=dds.qos.Qos(
+            policy.Userdata(self.name.encode())))
         if self._writer._use_version_2:
             raise RuntimeError("the DataWriter negotiated XCDR2; FastLink writes XCDR1")
-        policy = dds.qos.Policy
         qos = dds.qos.Qos(policy.Reliability.BestEffort, policy.History.KeepLast(1))
         core = dds.core
         self._mask = core.SampleState.Any | core.ViewState.Any | core.InstanceState.Any
+        self._userdata = policy.Userdata
+        self.out_topic = out_name
+        """The topic this side writes."""
+        self._watch = dds.sub.DataReader(self._participant, out_topic, qos=dds.qos.Qos(
+            policy.Reliability.BestEffort, policy.History.KeepLast(8),
+            policy.IgnoreLocal.Participant))
         self._cond = threading.Condition()
         self._latest: RawSample | None = None
         self._count = 0
@@ -141,6 +155,36 @@ class FastLink:
         ret = self._clayer.ddspy_write(self._writer._ref, wire)
         if ret < 0:
             raise RuntimeError(f"DDS write failed with code {ret}")
+
+    def other_writers(self) -> list[str]:
+        """The other writers of this side's topic that DDS has matched (this link's own
+        excluded), each as its user data says (``hybrid-recovery controller pid 4242``)
+        or, for a writer without it (another program), its participant's GUID."""
+        found = []
+        for handle in self._watch.get_matched_publications():
+            data = self._watch.get_matched_publication_data(handle)
+            if data is not None:
+                found.append(self._describe(data))
+        return found
+
+    def other_writes(self) -> list[str]:
+        """The writers (as :meth:`other_writers` names them) of samples another writer
+        published on this side's topic since the last call; never blocks."""
+        taken = self._clayer.ddspy_take(self._watch._ref, self._mask, 64)
+        if isinstance(taken, int):
+            return []
+        handles = sorted({info.publication_handle for _, info in taken if info.valid_data})
+        found = []
+        for handle in handles:
+            data = self._watch.get_matched_publication_data(handle)
+            found.append(f"writer {handle}" if data is None else self._describe(data))
+        return found
+
+    def _describe(self, data: Any) -> str:
+        userdata = self._userdata
+        raw = data.qos[userdata].data if userdata in data.qos else b""
+        text = bytes(raw).decode(errors="replace").strip()
+        return text or f"participant {data.participant_key}"
 
     @property
     def count(self) -> int:

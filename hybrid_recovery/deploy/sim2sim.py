@@ -30,9 +30,15 @@ from hybrid_recovery.deploy.robot_io import JointCommand
 from hybrid_recovery.deploy.sim_robot import SimRobot, SimRobotConfig
 from hybrid_recovery.deploy.state_machine import Phase, SafetyConfig, SafetyStateMachine
 from hybrid_recovery.dynamics import RobotModel
+from hybrid_recovery.files import atomic_path, atomic_write_text, refuse_existing
 from hybrid_recovery.observation import projected_gravity
 from hybrid_recovery.robot.constants import UPRIGHT_COM_HEIGHT
 from hybrid_recovery.robot.limits import SafetyLimits
+from hybrid_recovery.sim.divergence import (
+    SimulationDiverged,
+    divergence,
+    divergence_after_step,
+)
 from hybrid_recovery.sim.initial_states import POSES, settle_pool
 from hybrid_recovery.sim.scene import build_scene
 
@@ -82,12 +88,34 @@ def start_state(model_path: str | None, pose: str, physics_dt: float,
     return qpos[0], qvel[0]
 
 
+OUTPUTS = ("trace.csv", "trace.png", "summary.json", "video.mp4")
+"""The files a run writes into its output directory (each atomically)."""
+
+
+def check_output(out_dir: str | Path, force: bool) -> None:
+    """Refuses an output directory that holds an earlier run's files, unless ``force``.
+
+    Raises:
+        FileExistsError: ``<dir> already holds a sim2sim run (trace.csv, ...); pass
+            --force to overwrite it``.
+    """
+    held = [name for name in OUTPUTS if (Path(out_dir) / name).exists()]
+    if held:
+        refuse_existing(out_dir, force, f"a sim2sim run ({', '.join(held)})")
+
+
 def run_sim2sim(policy_dir: str | Path, out_dir: str | Path,
                 cfg: Sim2SimConfig | None = None) -> dict:
-    """Runs the policy, writes the trace, plot, summary and video; returns the summary."""
+    """Runs the policy, writes the trace, plot, summary and video; returns the summary.
+
+    A run whose simulation diverges (:func:`~hybrid_recovery.sim.divergence.divergence`)
+    stops there: the summary's ``diverged`` is true, ``divergence`` says why and when,
+    and ``upright_at_end`` is false.
+
+    Raises:
+        SimulationDiverged: the start state is not finite (nothing is written).
+    """
     cfg = cfg or Sim2SimConfig()
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
     robot_cfg = SimRobotConfig(model_path=cfg.model_path, physics_dt=0.001,
                                rotor_inertia=cfg.rotor_inertia)
     if cfg.start_qpos is None:
@@ -96,6 +124,10 @@ def run_sim2sim(policy_dir: str | Path, out_dir: str | Path,
     else:
         qpos, qvel = np.asarray(cfg.start_qpos, dtype=float), None
     robot = SimRobot(robot_cfg, qpos, qvel)
+    if (diverged := divergence(robot.data)) is not None:
+        raise SimulationDiverged(f"the start state has diverged ({diverged})")
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
     safety = SafetyConfig(SafetyLimits.from_robot(cfg.model_path), skip_startup=not cfg.startup)
     sm = SafetyStateMachine(safety)
     runner = PolicyRunner(policy_dir, target_range_factor=safety.q_ref_range_factor)
@@ -124,10 +156,15 @@ def run_sim2sim(policy_dir: str | Path, out_dir: str | Path,
             robot.apply_command(pending.popleft()[1])
         pushing = cfg.push_time <= robot.time < cfg.push_time + cfg.push_duration
         robot.push = push_vec if pushing else np.zeros(3)
+        t_step = robot.time
         robot.step(1)
+        diverged = divergence_after_step(robot.model, robot.data, t_step,
+                                         (k + 1) % decimation == 0 or k + 1 == steps)
+        if diverged is not None:
+            break
         if video is not None:
             video.maybe_capture()
-    summary = _summary(trace, sm, cfg)
+    summary = _summary(trace, sm, cfg, diverged)
     trace.write_csv(out / "trace.csv")
     title = f"{Path(cfg.model_path).name if cfg.model_path else 'own model'}, {cfg.pose}"
     if cfg.push_force:
@@ -137,11 +174,14 @@ def run_sim2sim(policy_dir: str | Path, out_dir: str | Path,
         summary["video"] = video.write(out / "video.mp4")
         if video.renderer is not None:
             summary["renderer"] = video.renderer.backend_name
-    (out / "summary.json").write_text(json.dumps(summary, indent=2))
+    atomic_write_text(json.dumps(summary, indent=2), out / "summary.json")
     return summary
 
 
-def _summary(trace: BalanceTrace, sm: SafetyStateMachine, cfg: Sim2SimConfig) -> dict:
+def _summary(trace: BalanceTrace, sm: SafetyStateMachine, cfg: Sim2SimConfig,
+             diverged: str | None = None) -> dict:
+    """The run's figures; a run whose simulation diverged (``diverged``: why and when) is
+    never upright at its end."""
     com_z, tilt, t = trace.column("com_z"), trace.column("tilt_deg"), trace.column("t")
     upright = com_z > UPRIGHT_COM_HEIGHT
     first_up = float(t[np.argmax(upright)]) if upright.any() else None
@@ -153,8 +193,10 @@ def _summary(trace: BalanceTrace, sm: SafetyStateMachine, cfg: Sim2SimConfig) ->
         "fault_detail": sm.fault_detail, "final_phase": sm.phase.value,
         "final_com_height": float(com_z[-1]), "min_com_height": float(com_z.min()),
         "max_tilt_deg": float(tilt.max()), "final_tilt_deg": float(tilt[-1]),
-        "upright_at_end": bool(upright[-1]), "first_upright_time": first_up,
+        "upright_at_end": diverged is None and bool(upright[-1]),
+        "first_upright_time": first_up,
         "transitions": [(tt, p.value, why) for tt, p, why in sm.transitions],
+        "diverged": diverged is not None, "divergence": diverged,
     }
 
 
@@ -191,5 +233,6 @@ class _Video:
         import imageio.v2 as imageio
 
         self.renderer.close()
-        imageio.mimwrite(path, self.frames, fps=round(1.0 / self.dt), macro_block_size=8)
+        with atomic_path(path) as tmp:
+            imageio.mimwrite(tmp, self.frames, fps=round(1.0 / self.dt), macro_block_size=8)
         return str(path)

@@ -20,6 +20,7 @@ IMU quaternion whose norm is not 1 ± ``quat_tolerance``; a measured joint posit
 its range ± ``joint_margin``; a measured torque beyond τ_max (1 + ``torque_tolerance``); no
 new state (newer tick, valid CRC) for ``stale_timeout_s``; a tick later than
 ``period_s + overrun_s`` after the previous one; an exception in the controller's loop
+or another writer's commands on ``rt/lowcmd``, reported by the loop
 (:meth:`SafetyStateMachine.fail_safe`).
 
 A state is new when its tick is ahead of the last one's modulo 2³² (the robot's u32
@@ -72,6 +73,7 @@ class Fault(enum.Enum):
     OVERRUN = "overrun"
     IMU_QUATERNION = "imu_quaternion"
     CONTROLLER_ERROR = "controller_error"
+    OTHER_WRITER = "other_writer"
 
 
 @dataclass(frozen=True)
@@ -201,13 +203,15 @@ class SafetyStateMachine:
         self._advance(now)
         return self._command(now, policy)
 
-    def fail_safe(self, now: float, detail: str) -> JointCommand:
-        """Goes to DAMPING at once with :attr:`Fault.CONTROLLER_ERROR` (the loop around
-        the machine failed) and returns the damping command, without any check that
-        could fail again."""
+    def fail_safe(self, now: float, detail: str,
+                  fault: Fault = Fault.CONTROLLER_ERROR) -> JointCommand:
+        """Goes to DAMPING at once with ``fault`` (found by the loop around the machine:
+        :attr:`Fault.CONTROLLER_ERROR` when it failed, :attr:`Fault.OTHER_WRITER` when
+        another process commands the robot too) and returns the damping command, without
+        any check that could fail again."""
         if self.phase is Phase.DAMPING:
             return self._damping()
-        return self._fail(now, Fault.CONTROLLER_ERROR, detail)
+        return self._fail(now, fault, detail)
 
     # ------------------------------------------------------------------ internals
     def _enter(self, now: float, phase: Phase, reason: str) -> None:

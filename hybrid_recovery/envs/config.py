@@ -7,7 +7,7 @@ import typing
 from dataclasses import dataclass, field
 from typing import Any
 
-from hybrid_recovery.envs.config_values import checked_value
+from hybrid_recovery.envs.config_values import check_section, checked_value
 from hybrid_recovery.robot.action import TARGET_RANGE_FACTOR
 from hybrid_recovery.robot.constants import UPRIGHT_COM_HEIGHT
 
@@ -90,6 +90,9 @@ class RewardConfig:
     use_capture_point: bool = True
     """Ablation switch: False zeroes r_CP (and r_CoM) — the capture-point rewards."""
 
+    def __post_init__(self) -> None:
+        check_section(self, "rewards.")
+
 
 @dataclass
 class NoiseConfig:
@@ -102,6 +105,9 @@ class NoiseConfig:
     """[rad]."""
     joint_vel: float = 0.5
     """[rad/s]."""
+
+    def __post_init__(self) -> None:
+        check_section(self, "noise.")
 
 
 @dataclass
@@ -128,6 +134,9 @@ class DomainRandConfig:
     init_joint_pos: float = 0.1
     """Initial joint offsets ±[rad]."""
 
+    def __post_init__(self) -> None:
+        check_section(self, "domain_rand.")
+
 
 @dataclass
 class PushConfig:
@@ -145,6 +154,9 @@ class PushConfig:
     """Chance that a push, while upright for ≥ upright_time, is a fall-inducing one."""
     upright_time: float = 2.0
     """[s]."""
+
+    def __post_init__(self) -> None:
+        check_section(self, "pushes.")
 
 
 @dataclass
@@ -183,6 +195,9 @@ class CurriculumConfig:
     step: float = 0.1
     stage1_poses: tuple[str, ...] = ("standing", "squatting", "kneeling")
 
+    def __post_init__(self) -> None:
+        check_section(self, "curriculum.")
+
 
 @dataclass
 class AssistConfig:
@@ -213,6 +228,9 @@ class AssistConfig:
     anneal it, while the other episodes go on counting for the curriculum; None: every
     episode is assisted and the curriculum waits for the assistance to end."""
 
+    def __post_init__(self) -> None:
+        check_section(self, "assist.")
+
 
 @dataclass
 class BridgeConfig:
@@ -242,6 +260,10 @@ class BridgeConfig:
     so that its starts stay where rises are still found. Why: without it, bridges have
     stalled for 200 iterations at a level where 0–6 % stood up."""
     window: int = 256
+
+    def __post_init__(self) -> None:
+        check_section(self, "bridge.")
+        _check_rates(self)
 
 
 @dataclass
@@ -275,6 +297,10 @@ class RiseConfig:
     """Stand-up rate over ``window`` below which the starts move one stretch back."""
     window: int = 128
     """Finished episodes from the current level per decision."""
+
+    def __post_init__(self) -> None:
+        check_section(self, "rises.")
+        _check_rates(self)
 
 
 @dataclass
@@ -333,6 +359,16 @@ class EnvConfig:
     assist: AssistConfig = field(default_factory=AssistConfig)
     bridge: BridgeConfig = field(default_factory=BridgeConfig)
     rises: RiseConfig = field(default_factory=RiseConfig)
+
+    def __post_init__(self) -> None:
+        check_section(self, "")
+
+
+def _check_rates(config: BridgeConfig | RiseConfig) -> None:
+    """The stand-up rates that move a level: retreat below advance."""
+    if not config.retreat < config.advance:
+        raise ValueError(f"{type(config).__name__}.retreat must be < advance, got retreat "
+                         f"{config.retreat!r} and advance {config.advance!r}")
 
 
 def default_config() -> EnvConfig:

@@ -3,58 +3,118 @@
 :func:`checked_value` turns a JSON-parsed value into the value of a dataclass field's
 declared type, or refuses it naming the key: ``config key 'physics_dt' must be > 0, got
 0``. EnvConfig keys are dotted paths; ``ppo.<field>`` and ``train.<field>`` are the
-amendable training settings (``train --amend``). Infinity is a number here (several
-fields use it for "no limit"); NaN never is.
+amendable training settings (``train --amend``). A number must be finite (infinity only
+where a field uses it for "no limit", :data:`INFINITE`), and NaN never is.
+
+The same table checks every EnvConfig section when it is constructed
+(:func:`check_section`).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import types
 import typing
 from typing import Any
 
-RANGES: dict[str, tuple[float, bool, float]] = {
+from hybrid_recovery.checks import (
+    NON_NEGATIVE,
+    POSITIVE,
+    UNIT,
+    Range,
+    bound_text,
+    check_fields,
+    in_range,
+)
+
+WEIGHT: Range = (-1e6, True, 1e6)
+"""A reward weight w: a reward per second of the condition holding, either sign."""
+COEFFICIENT: Range = (0.0, True, 1e6)
+"""A shaping coefficient α or a penalty scale: ≥ 0, small enough that α × a physical
+quantity stays finite in float32."""
+
+RANGES: dict[str, Range] = {
     "num_envs": (1, True, math.inf),
     "num_threads": (0, True, math.inf),
-    "physics_dt": (0.0, False, math.inf),
+    "seed": (0, True, 2**63 - 1),
+    "physics_dt": POSITIVE,
     "decimation": (1, True, math.inf),
-    "episode_length_s": (0.0, False, math.inf),
-    "action_scale": (0.0, False, math.inf),
-    "delay_range": (0.0, True, math.inf),
-    "pose_weights": (0.0, True, math.inf),
-    "torso_force_limit": (0.0, False, math.inf),
-    "stuck_time": (0.0, False, math.inf),
-    "stuck_rise": (0.0, True, math.inf),
-    "upright_height": (0.0, False, math.inf),
-    "rewards.sigma_height": (0.0, False, math.inf),
-    "rewards.sigma_com": (0.0, False, math.inf),
-    "rewards.sigma_cp": (0.0, False, math.inf),
-    "rewards.height_band": (0.0, True, math.inf),
-    "rewards.feet_flat": (0.0, True, math.inf),
-    "noise.ang_vel": (0.0, True, math.inf),
-    "noise.gravity": (0.0, True, math.inf),
-    "noise.joint_pos": (0.0, True, math.inf),
-    "noise.joint_vel": (0.0, True, math.inf),
-    "domain_rand.init_base_pos": (0.0, True, math.inf),
-    "domain_rand.init_base_rot": (0.0, True, math.inf),
-    "domain_rand.init_joint_pos": (0.0, True, math.inf),
-    "pushes.duration": (0.0, False, math.inf),
-    "pushes.interval": (0.0, False, math.inf),
-    "pushes.fall_probability": (0.0, True, 1.0),
-    "pushes.upright_time": (0.0, True, math.inf),
-    "curriculum.torque_scale_explore": (0.0, False, math.inf),
+    "episode_length_s": POSITIVE,
+    "action_scale": POSITIVE,
+    "delay_range": NON_NEGATIVE,
+    "pose_weights": NON_NEGATIVE,
+    "torso_force_limit": POSITIVE,
+    "stuck_time": POSITIVE,
+    "stuck_rise": NON_NEGATIVE,
+    "upright_height": POSITIVE,
+    "rewards.height_target": POSITIVE,
+    "rewards.w_height": WEIGHT,
+    "rewards.sigma_height": POSITIVE,
+    "rewards.w_rise": WEIGHT,
+    "rewards.alpha_rise": COEFFICIENT,
+    "rewards.w_fall": WEIGHT,
+    "rewards.alpha_fall": COEFFICIENT,
+    "rewards.w_stab": WEIGHT,
+    "rewards.alpha_stab": COEFFICIENT,
+    "rewards.alpha_stab_vel": COEFFICIENT,
+    "rewards.height_band": NON_NEGATIVE,
+    "rewards.w_com": WEIGHT,
+    "rewards.sigma_com": POSITIVE,
+    "rewards.w_cp": WEIGHT,
+    "rewards.sigma_cp": POSITIVE,
+    "rewards.w_mom": WEIGHT,
+    "rewards.alpha_lin": COEFFICIENT,
+    "rewards.alpha_ang": COEFFICIENT,
+    "rewards.w_torque": WEIGHT,
+    "rewards.w_joint_limit": WEIGHT,
+    "rewards.w_action_rate": WEIGHT,
+    "rewards.w_orient": WEIGHT,
+    "rewards.w_contact": WEIGHT,
+    "rewards.contact_gate_height": NON_NEGATIVE,
+    "rewards.w_feet": WEIGHT,
+    "rewards.feet_flat": (0.0, True, 0.99),
+    "rewards.w_alive": WEIGHT,
+    "rewards.w_termination": WEIGHT,
+    "noise.ang_vel": NON_NEGATIVE,
+    "noise.gravity": NON_NEGATIVE,
+    "noise.joint_pos": NON_NEGATIVE,
+    "noise.joint_vel": NON_NEGATIVE,
+    "domain_rand.kp_scale": POSITIVE,
+    "domain_rand.kd_scale": NON_NEGATIVE,
+    "domain_rand.joint_friction": NON_NEGATIVE,
+    "domain_rand.armature_scale": NON_NEGATIVE,
+    "domain_rand.static_friction": POSITIVE,
+    "domain_rand.dynamic_friction": POSITIVE,
+    "domain_rand.restitution": UNIT,
+    "domain_rand.mass_scale": POSITIVE,
+    "domain_rand.inertia_scale": POSITIVE,
+    "domain_rand.init_base_pos": NON_NEGATIVE,
+    "domain_rand.init_base_rot": NON_NEGATIVE,
+    "domain_rand.init_joint_pos": NON_NEGATIVE,
+    "pushes.force": NON_NEGATIVE,
+    "pushes.duration": POSITIVE,
+    "pushes.interval": POSITIVE,
+    "pushes.fall_force": NON_NEGATIVE,
+    "pushes.fall_probability": UNIT,
+    "pushes.upright_time": NON_NEGATIVE,
+    "curriculum.torque_scale_explore": POSITIVE,
     "curriculum.position_limit_final": (0.0, False, 1.0),
+    "curriculum.advance_success": NON_NEGATIVE,  # above 1: the curriculum never advances
     "curriculum.window": (1, True, math.inf),
     "curriculum.step": (0.0, False, 1.0),
-    "assist.fraction": (0.0, True, math.inf),
-    "assist.decay": (0.0, True, 1.0),
-    "assist.floor": (0.0, True, math.inf),
+    "assist.fraction": NON_NEGATIVE,
+    "assist.decay": UNIT,
+    "assist.floor": NON_NEGATIVE,
+    "assist.max_tilt": POSITIVE,
+    "assist.max_height": POSITIVE,
     "bridge.levels": (0, True, math.inf),
+    "bridge.advance": (0.0, False, 1.0),
+    "bridge.retreat": UNIT,
     "bridge.window": (1, True, math.inf),
     "rises.levels": (1, True, math.inf),
     "rises.advance": (0.0, False, 1.0),
-    "rises.retreat": (0.0, True, 1.0),
+    "rises.retreat": UNIT,
     "rises.window": (1, True, math.inf),
     "ppo.clip_param": (0.0, False, math.inf),
     "ppo.gamma": (0.0, False, 1.0),
@@ -72,8 +132,31 @@ RANGES: dict[str, tuple[float, bool, float]] = {
     "train.num_steps_per_env": (1, True, math.inf),
     "train.torch_threads": (1, True, math.inf),
 }
-"""Key → (lower bound, lower bound allowed, upper bound allowed) of every number in the
-value (each entry of a pair or a table); keys not listed take any number but NaN."""
+"""Key → range (:data:`~hybrid_recovery.checks.Range`) of every number in the value (each
+entry of a pair or a table). Every number of an EnvConfig is listed; a key not listed
+takes any finite number."""
+
+INFINITE = frozenset({"assist.max_height"})
+"""Keys whose value may be infinity (a "no limit"); every other number must be finite."""
+
+
+def check_section(config: Any, prefix: str) -> None:
+    """Checks every number of an EnvConfig section at its construction against
+    :data:`RANGES` (keys ``<prefix><field>``); its (low, high) pairs must be ordered.
+
+    Args:
+        config: The section (``RewardConfig``, ..., or the EnvConfig itself).
+        prefix: Its dotted key prefix: ``"rewards."``, ..., ``""`` for the EnvConfig.
+
+    Raises:
+        ValueError: ``<Class>.<field> must be <range>, got <value>`` (see
+            :func:`~hybrid_recovery.checks.check_fields`).
+    """
+    names = [f.name for f in dataclasses.fields(config)]
+    hints = typing.get_type_hints(type(config))
+    check_fields(config, {n: RANGES[prefix + n] for n in names if prefix + n in RANGES},
+                 infinite={n for n in names if prefix + n in INFINITE},
+                 pairs={n for n in names if hints[n] == tuple[float, float]})
 
 
 class _Refused(Exception):
@@ -97,13 +180,15 @@ def checked_value(dotted: str, value: Any, hint: Any) -> Any:
         out = _coerce(value, hint)
     except _Refused as err:
         raise ValueError(f"config key '{dotted}' must be {err.expected}, got {value!r}") from None
+    for x in _numbers(out):
+        if math.isinf(x) and dotted not in INFINITE:
+            raise ValueError(f"config key '{dotted}' must be finite, got {value!r}")
     if dotted in RANGES:
-        lo, closed, hi = RANGES[dotted]
+        bounds = RANGES[dotted]
         for x in _numbers(out):
-            if not (x >= lo if closed else x > lo) or x > hi:
-                bound = f"{'>=' if closed else '>'} {lo:g}" + ("" if hi == math.inf
-                                                              else f" and <= {hi:g}")
-                raise ValueError(f"config key '{dotted}' must be {bound}, got {value!r}")
+            if not in_range(x, bounds):
+                raise ValueError(f"config key '{dotted}' must be {bound_text(bounds)}, "
+                                 f"got {value!r}")
         if isinstance(out, tuple) and len(out) == 2 and all(isinstance(x, float) for x in out) \
                 and out[0] > out[1]:
             raise ValueError(f"config key '{dotted}' must be a (low, high) pair with low <= "

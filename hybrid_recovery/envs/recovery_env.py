@@ -46,6 +46,7 @@ from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.action import clip_action, joint_targets
 from hybrid_recovery.robot.mjcf import default_qpos
 from hybrid_recovery.sim.backend import check_backend, physics_batch
+from hybrid_recovery.sim.divergence import MAX_SPEED, clock_broken
 from hybrid_recovery.sim.initial_states import (
     POSES,
     perturb_start,
@@ -259,15 +260,23 @@ class RecoveryEnv(VecEnv):
         """Steps ``decimation`` substeps (the actuators apply the delayed targets); resets
         and returns the failed envs (N,) bool: those with a non-finite action
         (``bad_action``, :attr:`_sim`'s kind) and those whose simulation failed or
-        diverged (one read from the device for both)."""
+        diverged (one read from the device for both): a non-finite state, a speed above
+        :data:`~hybrid_recovery.sim.divergence.MAX_SPEED`, or, on CPU MuJoCo, a clock that
+        did not advance (:func:`~hybrid_recovery.sim.divergence.clock_broken`: MuJoCo
+        reset the simulation as unstable)."""
         failed = np.zeros(self.num_envs, dtype=bool)
+        clock = self.sims.bind("time") if self._device is None else None
+        before = None if clock is None else clock.copy()
         try:
             self.sims.step(nstep=self.cfg.decimation, stage=mujoco.mjtStage.mjSTAGE_VEL)
         except mjbatch.SimulationError as err:
             failed[np.asarray(err.ids)] = True
+        if clock is not None and before is not None:  # CPU MuJoCo resets what it finds unstable
+            dt = self.model.opt.timestep
+            failed |= clock_broken(before, clock, self.cfg.decimation * dt, dt)
         xp, q, v = self._xp, self._sim["qpos"], self._sim["qvel"]
         bad = ~xp.all(xp.isfinite(q), axis=1) | ~xp.all(xp.isfinite(v), axis=1)
-        failed |= self._to_host(bad_action | bad | xp.any(xp.abs(v) > 1e3, axis=1))
+        failed |= self._to_host(bad_action | bad | xp.any(xp.abs(v) > MAX_SPEED, axis=1))
         if failed.any():
             self.nan_resets += int(failed.sum())
             ids = np.flatnonzero(failed)

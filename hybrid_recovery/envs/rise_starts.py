@@ -95,9 +95,11 @@ def load_rises(path: str | Path, levels: int, nq: int, nv: int) -> tuple[str, Ri
     """The start pose and the moves of one recording.
 
     Raises:
-        ValueError: no such file, not a recording, arrays of the wrong shape, NaN, an
-            unknown pose, no move, or a stretch without a sample; the message names the
-            file and the problem.
+        ValueError: no such file, not a recording, arrays of the wrong type (qpos, qvel,
+            time real numbers, episode integers, phase strings, pose one string) or
+            shape, NaN, a base quaternion qpos[3:7] whose norm is not 1 ± 0.01 (the
+            message names the episode and the time), an unknown pose, no move, or a
+            stretch without a sample; the message names the file and the problem.
     """
     path = Path(path)
     if not path.is_file():
@@ -110,6 +112,7 @@ def load_rises(path: str | Path, levels: int, nq: int, nv: int) -> tuple[str, Ri
     missing = [key for key in _ARRAYS if key not in arrays]
     if missing:
         raise ValueError(f"rise recording {path} has no {missing} ({_HOW})")
+    _check_dtypes(path, arrays)
     qpos, qvel = arrays["qpos"], arrays["qvel"]
     if qpos.ndim != 2 or qpos.shape[1] != nq:
         raise ValueError(f"rise recording {path}: qpos has shape {qpos.shape}, expected "
@@ -125,6 +128,7 @@ def load_rises(path: str | Path, levels: int, nq: int, nv: int) -> tuple[str, Ri
     if not (np.isfinite(qpos).all() and np.isfinite(qvel).all()
             and np.isfinite(arrays["time"]).all()):
         raise ValueError(f"rise recording {path}: qpos, qvel or time holds NaN or inf")
+    _check_quaternions(path, qpos, arrays["episode"], arrays["time"])
     pose = str(arrays["pose"])
     if pose not in POSES:
         raise ValueError(f"rise recording {path}: unknown pose '{pose}'; known: "
@@ -139,6 +143,37 @@ def load_rises(path: str | Path, levels: int, nq: int, nv: int) -> tuple[str, Ri
         raise ValueError(f"rise recording {path}: rises.levels = {levels} leaves stretches "
                          f"{empty} without a sample; use fewer levels")
     return pose, RiseMoves(qpos[on_move].copy(), qvel[on_move].copy(), stretch)
+
+
+QUATERNION_TOLERANCE = 0.01
+"""A recorded base quaternion's norm may differ from 1 by this much (MuJoCo's integrator
+keeps it within ~1e-9)."""
+_KINDS = {"qpos": ("fi", "real numbers"), "qvel": ("fi", "real numbers"),
+          "time": ("fi", "real numbers"), "episode": ("iu", "integers"),
+          "phase": ("US", "strings"), "pose": ("US", "a string")}
+"""Array → (numpy dtype kinds allowed, what the message calls them)."""
+
+
+def _check_dtypes(path: Path, arrays: dict[str, np.ndarray]) -> None:
+    for key, (kinds, what) in _KINDS.items():
+        if arrays[key].dtype.kind not in kinds:
+            raise ValueError(f"rise recording {path}: {key} must hold {what}, got dtype "
+                             f"{arrays[key].dtype}")
+    if arrays["pose"].ndim != 0:
+        raise ValueError(f"rise recording {path}: pose must be one string, got shape "
+                         f"{arrays['pose'].shape}")
+
+
+def _check_quaternions(path: Path, qpos: np.ndarray, episode: np.ndarray,
+                       time: np.ndarray) -> None:
+    """Every base quaternion qpos[3:7] of unit norm; the first that is not is named."""
+    norm = np.linalg.norm(qpos[:, 3:7], axis=1)
+    bad = np.flatnonzero(np.abs(norm - 1.0) > QUATERNION_TOLERANCE)
+    if len(bad):
+        row = int(bad[0])
+        raise ValueError(f"rise recording {path}: episode {int(episode[row])} has a base "
+                         f"quaternion qpos[3:7] of norm {norm[row]:.3g} at {time[row]:.2f} s "
+                         f"(sample {row}; {len(bad)} samples off 1 ± {QUATERNION_TOLERANCE})")
 
 
 def turned(qpos: np.ndarray, qvel: np.ndarray, yaw: np.ndarray

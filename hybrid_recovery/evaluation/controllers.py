@@ -91,6 +91,22 @@ class OnnxPolicyController:
         return {}
 
 
+def policy_path(spec: str) -> Path | None:
+    """The ``policy.onnx`` a controller spec runs (``learned``, ``onnx:PATH``,
+    ``hybrid[:PATH]``), None for a controller without a policy or a path that does not
+    exist."""
+    kind, _, arg = spec.partition(":")
+    if kind == "learned" or (kind == "hybrid" and not arg):
+        arg = SHIPPED
+    if kind not in ("learned", "onnx", "hybrid") or not arg:
+        return None
+    try:
+        path = resolve_policy(arg)
+    except FileNotFoundError:
+        return None
+    return path / "policy.onnx" if path.is_dir() else path
+
+
 def make_controller(spec: str):
     """Builds a controller from ``zero``, ``learned``, ``onnx:PATH``, ``qp``, ``model`` or
     ``hybrid[:PATH]``.

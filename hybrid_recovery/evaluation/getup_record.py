@@ -1,10 +1,11 @@
 """Recorded rises: physically valid states along successful hybrid stand-ups.
 
-``hybrid-recovery getup record --pose sitting --episodes N --out FILE`` runs N hybrid
-trials with the ground moves first (``GetupConfig.policy_first`` off: moves, policy, QP)
-from a start pose with the paper's initialisation
-noise and keeps the successful ones, sampled at 50 Hz up to the moment of success, in
-one ``.npz``:
+``hybrid-recovery getup record --pose sitting --episodes N --policy P --out FILE`` runs N
+hybrid trials with the ground moves first (``GetupConfig.policy_first`` off: moves,
+policy ``P``, QP) from a start pose with the paper's initialisation noise and keeps the
+successful ones, sampled at 50 Hz up to the moment of success, in one ``.npz``, written
+whole or not at all; an existing file is replaced only when asked, and a run that keeps
+no rise writes nothing.
 
 * ``qpos`` (T, nq), ``qvel`` (T, nv): MuJoCo state;
 * ``time`` (T,) [s] from the episode start; ``episode`` (T,) its index;
@@ -21,6 +22,9 @@ one ``.npz``:
 from __future__ import annotations
 
 import dataclasses
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import mujoco
@@ -30,6 +34,7 @@ from hybrid_recovery.evaluation.controllers import make_controller
 from hybrid_recovery.evaluation.getup_controllers import GroundHybridController
 from hybrid_recovery.evaluation.scenario import Scenario, check_pose
 from hybrid_recovery.evaluation.trial import run_trial
+from hybrid_recovery.files import atomic_path, refuse_existing
 from hybrid_recovery.getup.contact_map import touching_bodies
 from hybrid_recovery.robot import constants
 
@@ -44,22 +49,89 @@ def move_target(ctrl: object, goal: bool = False) -> np.ndarray:
     return np.asarray(moves.goal if goal else moves.q_ref, dtype=float).copy()
 
 
-def record_rises(pose: str, episodes: int, out: str | Path, duration: float = 30.0,
-                 seed: int = 0, controller: str = "hybrid") -> dict:
-    """Runs ``episodes`` trials from ``pose`` and writes the successful rises to ``out``.
+class NoRiseKept(RuntimeError):
+    """A recording in which no trial rose: nothing is written."""
 
-    Returns:
-        ``{"attempted": n, "kept": k, "path": out}``.
+
+def _is_run_dir(path: Path) -> bool:
+    return path.is_dir() and ((path / "latest.pt").is_file() or any(path.glob("model_*.pt")))
+
+
+@contextmanager
+def recording_policy(policy: str | Path) -> Iterator[str]:
+    """The exported policy a recording runs: ``shipped``, an export directory or its
+    ``policy.onnx``, or a training run directory (its newest checkpoint exported to a
+    temporary directory, removed afterwards).
+
+    Yields:
+        The policy's path, checked: ``policy.onnx`` and ``policy.json`` load.
 
     Raises:
-        ValueError: an unknown pose, ``episodes`` < 1, or ``duration`` ≤ 0.
+        ValueError: one line naming a missing or unreadable policy.
+    """
+    from hybrid_recovery.policy import OnnxPolicy, resolve_policy
+
+    path = Path(policy)
+    if str(policy) != "shipped" and _is_run_dir(path):
+        from hybrid_recovery.training.export import export_policy
+
+        with tempfile.TemporaryDirectory(prefix="policy-") as tmp:
+            try:
+                exported = export_policy(path, Path(tmp) / "policy", record=False)
+            except (OSError, ValueError, KeyError, RuntimeError) as err:
+                raise ValueError(f"cannot export the policy of run {path}: {err}") from None
+            yield str(exported)
+        return
+    try:
+        resolved = resolve_policy(policy)
+        OnnxPolicy(resolved, require_description=True)
+    except FileNotFoundError as err:
+        raise ValueError(f"{err}; --policy takes an exported policy, its policy.onnx, a "
+                         f"training run directory or 'shipped'") from None
+    except (OSError, ValueError, KeyError) as err:
+        raise ValueError(f"cannot load policy {policy}: {err}") from None
+    yield str(resolved)
+
+
+def npz_path(out: str | Path) -> Path:
+    """``out`` as numpy writes it: with the suffix ``.npz`` added where it has another."""
+    out = Path(out)
+    return out if out.suffix == ".npz" else out.with_name(out.name + ".npz")
+
+
+def record_rises(pose: str, episodes: int, out: str | Path, *, policy: str | Path,
+                 duration: float = 30.0, seed: int = 0, controller: str = "hybrid",
+                 force: bool = False) -> dict:
+    """Runs ``episodes`` trials from ``pose`` and writes the successful rises to ``out``.
+
+    Args:
+        policy: the policy after the hand-over (:func:`recording_policy`): ``shipped``,
+            an exported policy, or a training run directory.
+        force: replace an existing ``out``.
+
+    Returns:
+        ``{"attempted": n, "kept": k, "path": out}`` (``out`` with ``.npz``).
+
+    Raises:
+        ValueError: an unknown pose, ``episodes`` < 1, ``duration`` ≤ 0, or a policy
+            that cannot be loaded.
+        FileExistsError: ``out`` exists and ``force`` is not set (before any trial).
+        NoRiseKept: no trial rose; nothing is written.
     """
     check_pose(pose)
     if episodes < 1:
         raise ValueError(f"episodes must be >= 1, got {episodes}")
-    if not duration > 0.0:
-        raise ValueError(f"duration must be > 0, got {duration}")
-    ctrl = make_controller(controller)
+    if not 0.0 < duration < float("inf"):
+        raise ValueError(f"duration must be a finite number > 0, got {duration}")
+    out = npz_path(out)
+    refuse_existing(out, force, "a recording")
+    with recording_policy(policy) as path:
+        spec = controller if ":" in controller or controller != "hybrid" else f"hybrid:{path}"
+        return _record(pose, episodes, out, duration, seed, make_controller(spec))
+
+
+def _record(pose: str, episodes: int, out: Path, duration: float, seed: int, ctrl) -> dict:
+    """The trials of :func:`record_rises` with ``ctrl``, written to ``out``."""
     if isinstance(ctrl, GroundHybridController):  # a rise through the moves, not around them
         ctrl.config = dataclasses.replace(ctrl.config, policy_first=False)
     rows: dict[str, list] = {k: [] for k in ("qpos", "qvel", "time", "episode", "phase",
@@ -85,15 +157,24 @@ def record_rises(pose: str, episodes: int, out: str | Path, duration: float = 30
 
         scenario = Scenario(pose, duration=duration, seed=seed + k)
         row = run_trial(ctrl, scenario, on_sample=grab, stop_on_success=True)
-        if not row["success"]:
+        if not row["success"] or row.get("diverged"):
             continue
         seeds.append(scenario.seed)
         times.append(row["recovery_time"])
         sample["episode"] = [len(seeds) - 1] * len(sample["time"])
         for key in rows:
             rows[key] += sample[key]
-    out = Path(out)
+    if not seeds:
+        raise NoRiseKept(f"no rise kept from {pose} in {episodes} episodes: nothing written "
+                         f"to {out}")
     out.parent.mkdir(parents=True, exist_ok=True)
+    with atomic_path(out) as tmp:
+        _write(tmp, rows, bodies, seeds, times, episodes, pose)
+    return {"attempted": episodes, "kept": len(seeds), "path": out}
+
+
+def _write(out: Path, rows: dict[str, list], bodies: list[str], seeds: list[int],
+           times: list[float], episodes: int, pose: str) -> None:
     np.savez_compressed(
         out, qpos=np.array(rows["qpos"]).reshape(-1, 7 + constants.NUM_JOINTS),
         qvel=np.array(rows["qvel"]).reshape(-1, 6 + constants.NUM_JOINTS),
@@ -104,5 +185,4 @@ def record_rises(pose: str, episodes: int, out: str | Path, duration: float = 30
         contacts=np.array(rows["contacts"], dtype=bool).reshape(-1, len(bodies)),
         contact_bodies=np.array(bodies, dtype=str), seeds=np.array(seeds, dtype=int),
         recovery_time=np.array(times), attempted=np.array(episodes), pose=np.array(pose))
-    return {"attempted": episodes, "kept": len(seeds), "path": out}
 

@@ -18,6 +18,7 @@ import numpy as np
 from hybrid_recovery.control.torque_model import load_torque_model
 from hybrid_recovery.evaluation.scenario import Scenario
 from hybrid_recovery.evaluation.trial import start_state
+from hybrid_recovery.files import atomic_path, atomic_write
 from hybrid_recovery.getup.margins import MarginSample, PhaseMargins, margins_along, summarise
 from hybrid_recovery.getup.moves import ALL_MOVES
 from hybrid_recovery.getup.single_move import SingleMove
@@ -78,13 +79,16 @@ def move_margins(moves: list[str] | tuple[str, ...] | None = None,
         :class:`~hybrid_recovery.getup.margins.PhaseMargins` summary.
 
     Raises:
-        ValueError: an unknown move, or no seed.
+        ValueError: an unknown move, no seed, or a negative seed.
     """
     names = list(ALL_MOVES) if moves is None else list(moves)
     for name in names:
         _check_move(name)
     if len(seeds) == 0:
         raise ValueError("name at least one seed")
+    for seed in seeds:
+        if seed < 0:
+            raise ValueError(f"seed must be an integer >= 0, got {seed}")
     model = load_torque_model()
     out = []
     for name in names:
@@ -144,10 +148,11 @@ CSV_FIELDS = ("move", "seed", "time", "phase", "dynamic", "feasible", "supported
 
 
 def write_csv(results: list[dict], path: str | Path) -> Path:
-    """Every checked state, one row each (:data:`CSV_FIELDS`)."""
+    """Every checked state, one row each (:data:`CSV_FIELDS`), written atomically."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("w", newline="") as f:
+
+    def write(f) -> None:
         writer = csv.writer(f)
         writer.writerow(CSV_FIELDS)
         for result in results:
@@ -158,6 +163,8 @@ def write_csv(results: list[dict], path: str | Path) -> Path:
                                  f"{s.margin:.4f}", f"{s.leftover_force:.2f}",
                                  f"{s.leftover_moment:.2f}",
                                  " ".join(s.contacts), " ".join(s.unmapped), s.reason])
+
+    atomic_write(path, "w", write)
     return path
 
 
@@ -191,6 +198,7 @@ def plot_margins(results: list[dict], path: str | Path) -> Path:
     fig.tight_layout()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=80)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=80)
     plt.close(fig)
     return path

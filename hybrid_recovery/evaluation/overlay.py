@@ -20,6 +20,7 @@ import numpy as np  # noqa: E402
 
 from hybrid_recovery.evaluation.scenario import SWEEP_DIRECTIONS  # noqa: E402
 from hybrid_recovery.evaluation.success import wilson_interval  # noqa: E402
+from hybrid_recovery.files import atomic_path  # noqa: E402
 
 _DIRECTION_NAMES = {round(v, 4): k for k, v in SWEEP_DIRECTIONS.items()}
 
@@ -115,7 +116,8 @@ def finish_panel(fig, ax, title: str, xlabel: str, ylabel: str, path: Path) -> N
     if ax.get_legend_handles_labels()[0]:  # a panel of one unnamed line has no legend
         ax.legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110)
     plt.close(fig)
 
 

@@ -15,8 +15,10 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from hybrid_recovery.files import atomic_path
 from hybrid_recovery.policy import OnnxPolicy
 from hybrid_recovery.robot import constants
+from hybrid_recovery.sim.divergence import SimulationDiverged
 from hybrid_recovery.sim.render import BalanceRenderer, balance_overlay
 
 CONTROL_RATE = 50
@@ -79,6 +81,8 @@ def play(out: str | Path, pose: str = "standing", seconds: float = 5.0,
 
     Raises:
         ValueError: an unknown pose, a frame rate that does not divide 50, or seconds ≤ 0.
+        SimulationDiverged: the simulation diverged (the environment reset it); the
+            video up to then is written.
     """
     import imageio.v2 as imageio
     import torch
@@ -106,10 +110,15 @@ def play(out: str | Path, pose: str = "standing", seconds: float = 5.0,
     push_step = int(round(push_time / env.dt)) if push > 0 else -1
     obs = env.get_observations()
     frames = 0
+    diverged_at = None
     Path(out).parent.mkdir(parents=True, exist_ok=True)
-    with imageio.get_writer(str(out), fps=fps, codec="libx264", quality=7,
-                            macro_block_size=16, ffmpeg_log_level="error") as writer:
+    with atomic_path(out) as tmp, imageio.get_writer(
+            str(tmp), fps=fps, codec="libx264", quality=7, macro_block_size=16,
+            ffmpeg_log_level="error") as writer:  # a stopped take leaves no half a video
         for k in range(steps):
+            if env.nan_resets:  # the env restarted a diverged episode: the take ends
+                diverged_at = k * env.dt
+                break
             if k == push_step:
                 _start_push(env, push, push_angle, push_duration)
             if k % every == 0:
@@ -122,6 +131,11 @@ def play(out: str | Path, pose: str = "standing", seconds: float = 5.0,
             action = policy(obs["policy"].numpy())
             obs, *_ = env.step(torch.as_tensor(np.asarray(action, np.float32)))
     renderer.close()
+    if diverged_at is not None:
+        raise SimulationDiverged(
+            f"the simulation diverged at t = {diverged_at:.2f} s (unstable physics or a "
+            f"non-finite action) and the environment restarted it; the video {out} stops "
+            f"there ({frames} frames)")
     return frames
 
 

@@ -20,6 +20,7 @@ from hybrid_recovery.evaluation.overlay import (  # noqa: E402
 )
 from hybrid_recovery.evaluation.scenario import SWEEP_DIRECTIONS  # noqa: E402
 from hybrid_recovery.evaluation.success import wilson_interval  # noqa: E402
+from hybrid_recovery.files import atomic_path, atomic_write_text  # noqa: E402
 
 _DIRECTION_NAMES = {round(v, 4): k for k, v in SWEEP_DIRECTIONS.items()}
 
@@ -32,6 +33,11 @@ def _rate(rows: list[dict], key: str = "success") -> tuple[float, float, float, 
     return (k / n if n else float("nan"), lo, hi, n)
 
 
+def _diverged(rows: list[dict]) -> int:
+    """How many of ``rows`` diverged (:func:`~hybrid_recovery.evaluation.trial.run_trial`)."""
+    return sum(bool(r.get("diverged")) for r in rows)
+
+
 def _group(rows: list[dict], *keys: str) -> dict[tuple, list[dict]]:
     out: dict[tuple, list[dict]] = defaultdict(list)
     for r in rows:
@@ -40,9 +46,10 @@ def _group(rows: list[dict], *keys: str) -> dict[tuple, list[dict]]:
 
 
 def summary_table(rows: list[dict], by: str = "pose") -> str:
-    """Markdown table: success rate with 95 % CI and recovery times, per ``by``."""
+    """Markdown table: success rate with 95 % CI and recovery times, per ``by``; the
+    trials whose simulation diverged count as failures and are counted apart."""
     lines = [f"| {by} | trials | success | 95 % CI | mean t_rec [s] | median t_rec [s] | "
-             "falls | stuck low |", "|---|---|---|---|---|---|---|---|"]
+             "falls | stuck low | diverged |", "|---|---|---|---|---|---|---|---|---|"]
     for (value,), group in _group(rows, by).items():
         rate, lo, hi, n = _rate(group)
         times = [r["recovery_time"] for r in group if r["success"]]
@@ -52,7 +59,7 @@ def summary_table(rows: list[dict], by: str = "pose") -> str:
         stuck = [r["stuck_low"] for r in group if "stuck_low" in r]  # older results lack it
         stuck_rate = f"{np.mean(stuck):.1%}" if stuck else "–"
         lines.append(f"| {value} | {n} | {rate:.1%} | [{lo:.1%}, {hi:.1%}] | {mean} | {median} "
-                     f"| {falls} | {stuck_rate} |")
+                     f"| {falls} | {stuck_rate} | {_diverged(group)} |")
     return "\n".join(lines)
 
 
@@ -79,10 +86,11 @@ def comparison_table(results: dict[str, list[dict]],
                      provenance: dict[str, dict] | None = None) -> str:
     """Markdown table, one row per controller: its training provenance (variant,
     iteration, env steps) where known, then success and stuck-low rates over all its
-    trials with 95 % CIs: the ablation's figures at deployment settings."""
+    trials with 95 % CIs: the ablation's figures at deployment settings; then the falls
+    and the trials whose simulation diverged."""
     provenance = provenance or {}
     lines = ["| controller | variant | iteration | env steps [M] | trials | success | "
-             "95 % CI | stuck low | 95 % CI | falls |", "|---" * 10 + "|"]
+             "95 % CI | stuck low | 95 % CI | falls | diverged |", "|---" * 11 + "|"]
     for label, rows in results.items():
         prov = provenance.get(label) or {}
         steps = prov.get("env_steps")
@@ -91,7 +99,7 @@ def comparison_table(results: dict[str, list[dict]],
                  "–" if steps is None else f"{steps / 1e6:.1f}", len(rows),
                  f"{succ[0]:.1%}", f"[{succ[1]:.1%}, {succ[2]:.1%}]",
                  f"{stuck[0]:.1%}", f"[{stuck[1]:.1%}, {stuck[2]:.1%}]",
-                 sum(bool(r["fell"]) for r in rows)]
+                 sum(bool(r["fell"]) for r in rows), _diverged(rows)]
         lines.append("| " + " | ".join(str(c) for c in cells) + " |")
     return "\n".join(lines)
 
@@ -124,7 +132,8 @@ def stuck_low_figure(results: dict[str, list[dict]], provenance: dict[str, dict]
     ax.legend(fontsize=8)
     ax.set_title("Stuck low at deployment settings, by training budget")
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=120)
     plt.close(fig)
     return True
 
@@ -163,7 +172,8 @@ def sweep_figures(rows: list[dict], out: Path, prefix: str = "") -> list[tuple[s
         ax.set_title("(A) recovery without push")
         fig.tight_layout()
         name = f"{prefix}A_no_push.png"
-        fig.savefig(out / name, dpi=110)
+        with atomic_path(out / name) as tmp:
+            fig.savefig(tmp, dpi=110)
         plt.close(fig)
         figs.append(("(A) success without push, per pose (95 % CI)", name))
     panels = [
@@ -195,7 +205,8 @@ def sweep_figures(rows: list[dict], out: Path, prefix: str = "") -> list[tuple[s
     ax.legend(fontsize=8)
     fig.tight_layout()
     name = f"{prefix}E_direction.png"
-    fig.savefig(out / name, dpi=110)
+    with atomic_path(out / name) as tmp:
+        fig.savefig(tmp, dpi=110)
     plt.close(fig)
     figs.append(("(E) push direction sensitivity", name))
     return figs
@@ -225,7 +236,8 @@ def capture_point_figure(trace: dict, push_time: float, path: Path, title: str =
     ax.set_title(title or "capture point and foot support polygons")
     ax.legend(fontsize=8, loc="best")
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110)
     plt.close(fig)
 
 
@@ -263,6 +275,10 @@ def write_report(results: dict[str, list[dict]], out_dir: str | Path, title: str
     for label, rows in results.items():
         safe = "".join(ch if ch.isalnum() else "_" for ch in label)[:40]
         md += [f"## {label}", "", summary_table(rows), ""]
+        if diverged := _diverged(rows):
+            md += [f"{diverged} of {len(rows)} trials diverged (the simulation became "
+                   "unstable; each row's `divergence` says why and when): they count as "
+                   "failures, never as recoveries.", ""]
         pushed = [r for r in rows if r["force"] > 0]
         if pushed and len({r["pose"] for r in rows}) == 1:
             md += ["Push hierarchy (success and most frequent strategy):", "",
@@ -277,8 +293,8 @@ def write_report(results: dict[str, list[dict]], out_dir: str | Path, title: str
             md += [f"![capture point evolution]({name})", ""]
     if ablation:
         md += ["## Ablation", "", ablation, ""]
-    (out / "report.md").write_text("\n".join(md))
-    (out / "results.json").write_text(json.dumps(
+    atomic_write_text("\n".join(md), out / "report.md")
+    atomic_write_text(json.dumps(
         {k: [{kk: vv for kk, vv in r.items() if kk != "trace"} for r in v]
-         for k, v in results.items()}, default=str))
+         for k, v in results.items()}, default=str), out / "results.json")
     return out / "report.md"

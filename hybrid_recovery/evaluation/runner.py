@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import multiprocessing as mp
 import signal
@@ -9,17 +10,26 @@ import sys
 import time
 from collections.abc import Iterator
 from pathlib import Path
+from typing import IO
 
 from hybrid_recovery.evaluation.contact import check_contact_preset
-from hybrid_recovery.evaluation.controllers import make_controller
+from hybrid_recovery.evaluation.controllers import make_controller, policy_path
 from hybrid_recovery.evaluation.scenario import Scenario
 from hybrid_recovery.evaluation.trial import run_trial
+from hybrid_recovery.files import exclusive_lock, sha256_file
 from hybrid_recovery.policy.description import load_policy_description
 from hybrid_recovery.policy.onnx_policy import DESCRIPTION
 
 _WORKER: dict = {}
 HEADER_KEY = "__header__"
 """``key`` of a results file's first line, the run's description (not a trial)."""
+HASHES = "sha256"
+"""Header field: role → SHA-256 of each file the results depend on (:func:`content_hashes`)."""
+_HASHED = {"model": "the model file", "policy": "the policy file",
+           "policy_data": "the policy's weights file"}
+"""Roles of :data:`HASHES`, as the messages name them."""
+LOCK_HINT = "wait for it to end or choose another --out"
+"""The end of the message that refuses a second writer of an evaluation's output."""
 
 
 class EvaluationInterrupted(KeyboardInterrupt):
@@ -41,29 +51,44 @@ def _work(scenario: Scenario) -> dict:
 
 
 def completed_keys(results: Path) -> set[str]:
-    """Keys of the trials already in ``results``: not the header; a torn last line is
-    ignored."""
-    if not results.is_file():
+    """Keys of the trials already in ``results``: not the header; a torn line is ignored.
+
+    Raises:
+        ValueError: a line that is not a JSON object (see :func:`load_results`).
+    """
+    if not Path(results).is_file():
         return set()
-    keys = set()
-    for line in results.read_text().splitlines():
-        try:
-            keys.add(json.loads(line)["key"])
-        except (json.JSONDecodeError, KeyError, TypeError):
-            continue
-    keys.discard(HEADER_KEY)
-    return keys
+    return {r["key"] for r in load_results(results) if r["key"] != HEADER_KEY}
+
+
+def content_hashes(controller: str, model_path: str | Path | None) -> dict[str, str]:
+    """SHA-256 of the files a run's results depend on, by role: ``model`` (the
+    ``--model`` file itself, not the meshes it includes), ``policy`` (``policy.onnx`` of
+    the controller's policy) and ``policy_data`` (its ``policy.onnx.data`` weights, where
+    torch split them off); the roles without a file are absent."""
+    hashes = {}
+    if model_path is not None:
+        hashes["model"] = sha256_file(model_path)
+    policy = policy_path(controller)
+    if policy is not None:
+        hashes["policy"] = sha256_file(policy)
+        weights = policy.with_name(policy.name + ".data")
+        if weights.is_file():
+            hashes["policy_data"] = sha256_file(weights)
+    return hashes
 
 
 def check_same_run(results: Path, meta: dict) -> None:
-    """Refuses to resume ``results`` for a run other than the one its header describes.
+    """Refuses to resume ``results`` for a run other than the one its header describes:
+    another setting, or the same file names with other contents.
 
     Args:
         results: an existing results file.
         meta: the header the run would write to a new file.
 
     Raises:
-        ValueError: naming the first field that differs (or the missing header).
+        ValueError: naming the first field that differs (or the missing header), or each
+            file whose content hash differs.
     """
     with results.open() as f:
         first = f.readline()
@@ -71,31 +96,69 @@ def check_same_run(results: Path, meta: dict) -> None:
         old = json.loads(first)
     except json.JSONDecodeError:
         old = {}
-    if not isinstance(old, dict) or old.get("key") != "__header__":
+    if not isinstance(old, dict) or old.get("key") != HEADER_KEY:
         raise ValueError(f"{results} is not a results file of this harness (no header); "
                          "choose another --out or remove it")
-    for field in sorted(set(old) | set(meta)):
+    for field in sorted((set(old) | set(meta)) - {HASHES}):
         if old.get(field) != meta.get(field):
             raise ValueError(
                 f"{results} holds another run ({field}: {old.get(field)!r} there, "
                 f"{meta.get(field)!r} now); choose another --out or remove it to start anew")
+    now = meta.get(HASHES, {})
+    if HASHES not in old and now:
+        raise ValueError(f"{results} records no content hashes of its model and policy "
+                         "files, so they cannot be checked; choose another --out or remove "
+                         "it to start anew")
+    then = old.get(HASHES) or {}
+    changed = [f"{_HASHED.get(role, role)} {_hashed_path(role, meta)} "
+               f"(sha256 {_short(then.get(role))} there, {_short(now.get(role))} now)"
+               for role in sorted(set(then) | set(now)) if then.get(role) != now.get(role)]
+    if changed:
+        raise ValueError(f"{results} holds results of other file contents: "
+                         f"{'; '.join(changed)} changed; choose another --out or remove it "
+                         "to start anew")
+
+
+def _hashed_path(role: str, meta: dict) -> str:
+    if role == "model":
+        return str(meta.get("model"))
+    policy = policy_path(str(meta.get("controller")))
+    if policy is None:
+        return "?"
+    return str(policy if role == "policy" else policy.with_name(policy.name + ".data"))
+
+
+def _short(digest: str | None) -> str:
+    return "none" if digest is None else digest[:12]
 
 
 def load_results(results: str | Path) -> list[dict]:
-    """All complete result rows of a JSON-lines results file.
+    """The rows of a JSON-lines results file: the header first, then each trial once.
+
+    A line that is not JSON (a line torn by a killed run) is skipped; of rows with the
+    same ``key`` (two writers appending at once before results were locked) the first
+    is kept.
 
     Raises:
         FileNotFoundError: ``results file not found: <path>``.
+        ValueError: a line that is JSON but not an object with a string ``key``:
+            ``<path> line <n> is not a result row (a JSON object with a key): <line>``.
     """
     if not Path(results).is_file():
         raise FileNotFoundError(f"results file not found: {results}")
-    rows = []
-    for line in Path(results).read_text().splitlines():
+    rows: dict[str, dict] = {}
+    for number, line in enumerate(Path(results).read_text().splitlines(), 1):
         try:
-            rows.append(json.loads(line))
+            row = json.loads(line)
         except json.JSONDecodeError:
             continue
-    return rows
+        if not isinstance(row, dict) or not isinstance(row.get("key"), str):
+            shown = line if len(line) <= 60 else line[:57] + "..."
+            raise ValueError(f"{results} line {number} is not a result row (a JSON object "
+                             f"with a key): {shown}")
+        rows.setdefault(row["key"], row)
+    header = rows.pop(HEADER_KEY, None)
+    return [*([header] if header is not None else []), *rows.values()]
 
 
 def policy_provenance(controller) -> dict | None:
@@ -132,54 +195,71 @@ def run_protocol(scenarios: list[Scenario], controller: str, results: str | Path
 
     A killed run resumes where it stopped: finished trials are skipped by key. The first
     line of a new file is a header with the controller (and its policy's provenance), the
-    model, the contact setting, the rotor inertia and ``header`` (the protocol's
-    configuration and seed); an existing file is resumed only if its header is the same,
-    since trial keys name the scenario, not who ran it.
+    model, the contact setting, the rotor inertia, the SHA-256 of the model and policy
+    files (:func:`content_hashes`) and ``header`` (the protocol's configuration and
+    seed); an existing file is resumed only if its header is the same, since trial keys
+    name the scenario, not who ran it. A new file is created with its first trial's row:
+    a run that ends before any trial finished leaves no file.
+
+    The run holds the lock of ``results`` (:func:`~hybrid_recovery.files.exclusive_lock`):
+    a second writer of the same file is refused at once, naming the holder's pid.
 
     Ctrl-C stops the run: every finished trial is already in the file (written and
     flushed as it arrives), the workers are ended, and
     :class:`EvaluationInterrupted` says how many trials the file holds.
 
     Returns:
-        All result rows of the file (old and new).
+        All result rows of the file (old and new, each key once).
 
     Raises:
-        ValueError: ``results`` exists but holds another run (or no header), or a bad
-            controller, contact preset or model; nothing is written then.
+        ValueError: ``results`` exists but holds another run (another setting, or model
+            or policy files whose contents changed), no header, or a line that is not a
+            result row; or a bad controller, contact preset or model; nothing is written
+            then.
+        FileLockedError: another process is writing ``results``.
         EvaluationInterrupted: on Ctrl-C.
     """
     results = Path(results)
     check_contact_preset(contact)
     built = make_controller(controller)  # fail fast on a bad spec, before any file
-    results.parent.mkdir(parents=True, exist_ok=True)
     meta = {"key": HEADER_KEY, "controller": controller, "model": model_path,
             "contact": contact, **(header or {})}
     if rotor_inertia:  # absent otherwise: older results files stay resumable
         meta["rotor_inertia"] = True
     if (policy := policy_provenance(built)) is not None:
         meta["policy"] = policy
+    if hashes := content_hashes(controller, model_path):
+        meta[HASHES] = hashes
+    with exclusive_lock(results, LOCK_HINT):
+        return _run_locked(scenarios, controller, results, meta, model_path, contact,
+                           workers, progress, rotor_inertia, stop_on_success)
+
+
+def _run_locked(scenarios: list[Scenario], controller: str, results: Path, meta: dict,
+                model_path: str | None, contact: str, workers: int, progress: bool,
+                rotor_inertia: bool, stop_on_success: bool) -> list[dict]:
+    """:func:`run_protocol` once it holds the lock of ``results``."""
     if results.is_file():
         check_same_run(results, meta)
-    else:
-        results.write_text(json.dumps(meta) + "\n")
     done = completed_keys(results)
     todo = [s for s in scenarios if s.key not in done]
     start, count, shown = time.time(), 0, 0.0
-    with results.open("a") as out:
-        if results.read_bytes()[-1:] not in (b"", b"\n"):
-            out.write("\n")  # end a line torn by a killed run
-        if workers <= 1:
-            _init_worker(controller, model_path, contact, rotor_inertia=rotor_inertia,
-                         stop_on_success=stop_on_success)
-            rows: Iterator[dict] = map(_work, todo)
-            pool = None
-        else:
-            pool = mp.get_context("fork").Pool(workers, _init_worker,
-                                               (controller, model_path, contact, True,
-                                                rotor_inertia, stop_on_success))
-            rows = pool.imap_unordered(_work, todo)
+    if workers <= 1:
+        _init_worker(controller, model_path, contact, rotor_inertia=rotor_inertia,
+                     stop_on_success=stop_on_success)
+        rows: Iterator[dict] = map(_work, todo)
+        pool = None
+    else:
+        pool = mp.get_context("fork").Pool(workers, _init_worker,
+                                           (controller, model_path, contact, True,
+                                            rotor_inertia, stop_on_success))
+        rows = pool.imap_unordered(_work, todo)
+    with contextlib.ExitStack() as stack:
+        out: IO[str] | None = None
         try:
             for row in rows:
+                if out is None:
+                    out = stack.enter_context(_open_results(results, meta))
                 out.write(json.dumps(row, default=str) + "\n")
                 out.flush()
                 count += 1
@@ -189,7 +269,8 @@ def run_protocol(scenarios: list[Scenario], controller: str, results: str | Path
         except KeyboardInterrupt:
             if progress and count:
                 print(file=sys.stderr)
-            out.flush()  # the interrupt may fall between a row's write and its count
+            if out is not None:
+                out.flush()  # the interrupt may fall between a row's write and its count
             raise EvaluationInterrupted(
                 f"interrupted: {len(completed_keys(results))} of {len(done) + len(todo)} "
                 f"trials are in {results}; the same command resumes") from None
@@ -198,7 +279,24 @@ def run_protocol(scenarios: list[Scenario], controller: str, results: str | Path
                 pool.terminate()
     if progress and todo:
         print(file=sys.stderr)
-    return [r for r in load_results(results) if r.get("key") != HEADER_KEY]
+    if not results.is_file():
+        return []
+    return [r for r in load_results(results) if r["key"] != HEADER_KEY]
+
+
+@contextlib.contextmanager
+def _open_results(results: Path, meta: dict) -> Iterator[IO[str]]:
+    """``results`` opened to append, created with its header line when new; a line torn
+    by a killed run is ended first."""
+    new = not results.is_file()
+    if new:
+        results.parent.mkdir(parents=True, exist_ok=True)
+    with results.open("a") as out:
+        if new:
+            out.write(json.dumps(meta) + "\n")
+        elif results.read_bytes()[-1:] not in (b"", b"\n"):
+            out.write("\n")
+        yield out
 
 
 def _progress(count: int, total: int, start: float, skipped: int) -> None:

@@ -8,6 +8,7 @@ from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
+from hybrid_recovery.envs.terminations import SUCCESS_TIME
 from hybrid_recovery.sim.initial_states import POSES
 
 SWEEP_POSES = ("standing", "squatting", "kneeling", "supine", "sitting")
@@ -19,6 +20,18 @@ SWEEP_HEIGHTS = (-0.2, 0.0, 0.2, 0.4, 0.6)
 """Push application height relative to the CoM [m]."""
 PUSH_NOISE = 0.25
 """Initialisation-noise scale of push trials (see :class:`Scenario`)."""
+
+MAX_PUSH_FORCE = 1000.0
+"""The largest torso push a run accepts [N]: twice the sweep's largest. For 0.1 s it gives
+the 67 kg robot 1.5 m/s, a certain fall; larger ones test the solver, not the controller
+(at 1.5–2 kN a lying robot's simulation diverges, a joint above 10³ rad/s, even at the
+sweep's heights)."""
+PUSH_HEIGHT_RANGE = (-1.0, 1.0)
+"""Push point heights a run accepts, relative to the CoM [m]: the robot's extent about its
+standing CoM (0.92 m above the soles, 0.85 m below the top of the head)."""
+MAX_NOISE = 5.0
+"""The largest initialisation-noise scale a run accepts: base tilts of ±1 rad, beyond
+which a named start pose is no longer that pose."""
 
 
 @dataclass(frozen=True)
@@ -47,6 +60,32 @@ class Scenario:
     duration: float = 20.0
     seed: int = 0
     noise: float = 1.0
+
+    def __post_init__(self) -> None:
+        """Refuses numbers a trial cannot run on (a push far out of
+        :data:`MAX_PUSH_FORCE` is allowed here: it ends the trial as diverged).
+
+        Raises:
+            ValueError: ``duration must be a finite number > 0, got inf`` and the like.
+        """
+        for name in ("force", "direction", "height"):
+            if not np.isfinite(getattr(self, name)):
+                raise ValueError(f"{name} must be a finite number, got {getattr(self, name)}")
+        for name in ("push_time", "push_duration", "noise"):
+            if not (np.isfinite(getattr(self, name)) and getattr(self, name) >= 0.0):
+                raise ValueError(f"{name} must be a finite number >= 0, "
+                                 f"got {getattr(self, name)}")
+        if not (np.isfinite(self.duration) and self.duration > 0.0):
+            raise ValueError(f"duration must be a finite number > 0, got {self.duration}")
+        if self.seed < 0:
+            raise ValueError(f"seed must be an integer >= 0, got {self.seed}")
+
+    @property
+    def min_duration(self) -> float:
+        """The shortest trial that can show a recovery [s]: the end of the push (the start
+        without one), then ``SUCCESS_TIME`` of standing."""
+        end = self.push_time + self.push_duration if self.force > 0 else 0.0
+        return end + SUCCESS_TIME
 
     @property
     def key(self) -> str:

@@ -19,6 +19,7 @@ from hybrid_recovery.evaluation.success import recovery_time, stuck_low
 from hybrid_recovery.observation import projected_gravity
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.mjcf import load_mjmodel
+from hybrid_recovery.sim.divergence import divergence, divergence_after_step
 from hybrid_recovery.sim.initial_states import mirror_qpos, perturb_start, seat_single, settle_pool
 
 RECORD_DT = 0.02
@@ -62,6 +63,9 @@ def start_state(scenario: Scenario, model_path: str | None, contact: str,
     A push with a rightward component (sin(direction) < 0) starts from the mirror image
     (:func:`~hybrid_recovery.sim.initial_states.mirror_qpos`) of the state its leftward
     twin starts from, so that left and right cells differ only in the side pushed.
+
+    Raises:
+        ValueError: an unknown pose.
     """
     check_pose(scenario.pose)
     model = eval_model(model_path, timestep, False, contact, rotor_inertia)
@@ -92,6 +96,12 @@ def run_trial(controller, scenario: Scenario, model_path: str | Path | None = No
     standing condition held for 1 s after the push), which leaves ``success`` and
     ``recovery_time`` unchanged and shortens the trial.
 
+    The simulation is checked after every step and before every sample
+    (:func:`~hybrid_recovery.sim.divergence.divergence_after_step`): a trial whose
+    simulation diverged (a MuJoCo instability warning and its reset, a non-finite start or
+    state, a runaway speed) ends there as ``diverged``, never as a success; the
+    measurements up to then are kept.
+
     Returns:
         A flat dict: the scenario, ``success`` (the paper's criterion, after the push for a
         pushed trial), ``recovery_time`` [s] from the start, or from the end of the push
@@ -99,7 +109,10 @@ def run_trial(controller, scenario: Scenario, model_path: str | Path | None = No
         ``fell`` (CoM below 0.5 m at some point), ``stuck_low`` (the training env's
         stuck-low termination would have ended the trial), ``peak_torque`` [N·m], ``time_low`` (time
         with the CoM below 0.85 m) [s], ``strategy``, ``not_applicable`` (the controller
-        declined the situation), and with ``record`` a ``trace`` of arrays at 50 Hz.
+        declined the situation), ``diverged`` and ``divergence`` (why and when, None
+        unless diverged; a diverged trial has ``success``, ``standing_at_end`` and
+        ``stuck_low`` false, no ``recovery_time`` and the strategy ``diverged``), and
+        with ``record`` a ``trace`` of arrays at 50 Hz.
     """
     path = None if model_path is None else str(model_path)
     timestep = physics_step(controller, path)
@@ -109,14 +122,18 @@ def run_trial(controller, scenario: Scenario, model_path: str | Path | None = No
                     if start_qpos is None else start_qpos)
     seat_single(model, data)
     mujoco.mj_forward(model, data)
-    data.ctrl[:] = 0.0 if controller.torque_control else data.qpos[
-        model.jnt_qposadr[1:1 + constants.NUM_JOINTS]]
-    controller.reset(model, data)
+    diverged = divergence(data)  # a non-finite start: no step, no controller
+    if diverged is not None:
+        diverged += " at the start"
+    else:
+        data.ctrl[:] = 0.0 if controller.torque_control else data.qpos[
+            model.jnt_qposadr[1:1 + constants.NUM_JOINTS]]
+        controller.reset(model, data)
     torso = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, constants.TORSO_BODY)
     groups = _contact_group_of_body(model)
     dt = model.opt.timestep
     every = max(1, int(round(RECORD_DT / dt)))
-    steps = int(round(scenario.duration / dt))
+    steps = 0 if diverged else max(1, int(round(scenario.duration / dt)))
     push_steps = range(int(round(scenario.push_time / dt)),
                        int(round((scenario.push_time + scenario.push_duration) / dt)))
     push = np.zeros(3)
@@ -152,27 +169,35 @@ def run_trial(controller, scenario: Scenario, model_path: str | Path | None = No
                 streak = streak + 1 if now else 0
                 if streak >= need:
                     break
+        before = data.time
         mujoco.mj_step(model, data)
-        peak_torque = max(peak_torque, float(np.abs(data.actuator_force).max()))
-        if not np.isfinite(data.qpos).all():
+        diverged = divergence_after_step(model, data, before, (k + 1) % every == 0)
+        if diverged is not None:
             break
+        peak_torque = max(peak_torque, float(np.abs(data.actuator_force).max()))
+    if diverged is None and steps:  # the steps after the last sample
+        diverged = divergence_after_step(model, data, data.time - dt, True)
+    if not trace["t"]:  # a diverged start: its one sample
+        _record(model, data, trace, groups, hip_adr, torso)
     arrays = {k: np.asarray(v) for k, v in trace.items()}
     com = arrays["com"]
     t0 = scenario.push_time + scenario.push_duration if scenario.force > 0 else 0.0
-    t_rec = recovery_time(arrays["t"], com[:, 2], arrays["com_vel"][:, 2], arrays["gravity_b"],
-                          start=t0)
-    info = controller.info() if hasattr(controller, "info") else {}
+    t_rec = None if diverged else recovery_time(arrays["t"], com[:, 2], arrays["com_vel"][:, 2],
+                                                arrays["gravity_b"], start=t0)
+    info = controller.info() if hasattr(controller, "info") and steps else {}
     result = {
         **scenario.to_dict(), "key": scenario.key, "controller": controller.name,
         "model": path or "own", "contact": contact, "rotor_inertia": rotor_inertia,
         "success": t_rec is not None, "recovery_time": t_rec,
-        "standing_at_end": bool(com[-1, 2] > constants.UPRIGHT_COM_HEIGHT),
+        "standing_at_end": not diverged and bool(com[-1, 2] > constants.UPRIGHT_COM_HEIGHT),
         "fell": bool((com[:, 2] < 0.5).any()),
-        "stuck_low": stuck_low(com[:, 2], RECORD_DT),
+        "stuck_low": not diverged and stuck_low(com[:, 2], RECORD_DT),
         "peak_torque": peak_torque,
         "time_low": float((com[:, 2] < constants.UPRIGHT_COM_HEIGHT).sum() * RECORD_DT),
-        "strategy": label_strategy(arrays, scenario.push_time if scenario.force > 0 else None),
+        "strategy": "diverged" if diverged else label_strategy(
+            arrays, scenario.push_time if scenario.force > 0 else None),
         "not_applicable": bool(info.pop("not_applicable", False)),
+        "diverged": diverged is not None, "divergence": diverged,
         "controller_info": info,
     }
     if record:

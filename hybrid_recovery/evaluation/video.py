@@ -7,6 +7,8 @@ from pathlib import Path
 
 from hybrid_recovery.evaluation.scenario import Scenario
 from hybrid_recovery.evaluation.trial import RECORD_DT, run_trial
+from hybrid_recovery.files import atomic_path
+from hybrid_recovery.sim.divergence import SimulationDiverged
 
 
 def render_trial(controller, scenario: Scenario, path: str | Path, seconds: float | None = None,
@@ -15,6 +17,9 @@ def render_trial(controller, scenario: Scenario, path: str | Path, seconds: floa
 
     Drawn with OpenGL where a context can be made, else in software
     (:func:`hybrid_recovery.sim.render.renderer_backend` says which).
+
+    Raises:
+        SimulationDiverged: the trial diverged; the video up to then is written.
     """
     import imageio.v2 as imageio
 
@@ -33,9 +38,13 @@ def render_trial(controller, scenario: Scenario, path: str | Path, seconds: floa
     if seconds is not None:
         scenario = dataclasses.replace(scenario, duration=seconds)
     try:
-        run_trial(controller, scenario, model_path, on_sample=grab)
+        row = run_trial(controller, scenario, model_path, on_sample=grab)
     finally:
         renderer.close()
     path = Path(path)
-    imageio.mimwrite(path, frames, fps=fps, macro_block_size=1)
+    with atomic_path(path) as tmp:
+        imageio.mimwrite(tmp, frames, fps=fps, macro_block_size=1)
+    if row["diverged"]:
+        raise SimulationDiverged(f"the simulation diverged ({row['divergence']}); the video "
+                                 f"{path} stops there")
     return path

@@ -42,6 +42,7 @@ import mujoco
 import numpy as np
 import proxsuite
 
+from hybrid_recovery.checks import NON_NEGATIVE, POSITIVE, Range, check_fields
 from hybrid_recovery.control.robot_state import RobotState, StateReader
 from hybrid_recovery.control.wbc_qp import (
     Task,
@@ -95,11 +96,24 @@ class ContactQpConfig:
     max_iter: int = 200
 
     def __post_init__(self) -> None:
-        for name in ("friction", "effort_scale", "w_qacc", "max_point_force", "limit_horizon",
-                     "eps_abs"):
-            value = getattr(self, name)
-            if not value > 0.0:
-                raise ValueError(f"ContactQpConfig.{name} must be > 0, got {value}")
+        check_config(self)
+
+
+RANGES: dict[str, Range] = {
+    "friction": POSITIVE, "effort_scale": POSITIVE, "w_qacc": POSITIVE,
+    "w_force": NON_NEGATIVE, "w_rho": NON_NEGATIVE, "contact_kd": NON_NEGATIVE,
+    "max_point_force": POSITIVE, "limit_margin": NON_NEGATIVE, "limit_horizon": POSITIVE,
+    "eps_abs": POSITIVE, "max_iter": (1, True, float("inf"))}
+"""Field of :class:`ContactQpConfig` → its range."""
+
+
+def check_config(config: ContactQpConfig) -> None:
+    """Every number of ``config`` finite and in its range (:data:`RANGES`).
+
+    Raises:
+        ValueError: e.g. ``ContactQpConfig.friction must be > 0, got 0.0``.
+    """
+    check_fields(config, RANGES)
 
 
 @dataclass

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
+from hybrid_recovery.checks import NON_NEGATIVE, POSITIVE, Range, check_fields
 from hybrid_recovery.control.balance_controller import BalanceController
 from hybrid_recovery.control.policy_controller import pd_torque
 from hybrid_recovery.control.torque_model import CONTROL_DT
@@ -64,6 +65,24 @@ class GetupConfig:
     still_joint_speed: float = 2.0
     still_base_speed: float = 0.2
     max_relapses: int = 2
+
+    def __post_init__(self) -> None:
+        check_config(self)
+
+
+RANGES: dict[str, Range] = {"ground_com_height": POSITIVE, "relapse_time": NON_NEGATIVE,
+                            "still_joint_speed": POSITIVE, "still_base_speed": POSITIVE,
+                            "max_relapses": NON_NEGATIVE}
+"""Field of :class:`GetupConfig` → its range."""
+
+
+def check_config(config: GetupConfig) -> None:
+    """Every number of ``config`` finite and in its range (:data:`RANGES`).
+
+    Raises:
+        ValueError: e.g. ``GetupConfig.relapse_time must be >= 0, got -1.0``.
+    """
+    check_fields(config, RANGES)
 
 
 def com_height(model: mujoco.MjModel, data: mujoco.MjData) -> float:

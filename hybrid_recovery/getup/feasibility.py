@@ -36,6 +36,7 @@ import pinocchio as pin
 import proxsuite
 from scipy.optimize import linprog
 
+from hybrid_recovery.checks import FINITE, POSITIVE, Range, check_fields
 from hybrid_recovery.dynamics.conventions import qpos_to_pin
 from hybrid_recovery.dynamics.robot_model import GRAVITY, RobotModel
 from hybrid_recovery.getup.contacts import (
@@ -72,10 +73,21 @@ class FeasibilityConfig:
     floor_height: float = 0.0
 
     def __post_init__(self) -> None:
-        for name in ("friction", "effort_scale", "max_gap", "support_tolerance"):
-            value = getattr(self, name)
-            if not value > 0.0:
-                raise ValueError(f"{name} must be > 0, got {value}")
+        check_config(self)
+
+
+RANGES: dict[str, Range] = {"friction": POSITIVE, "effort_scale": POSITIVE, "max_gap": POSITIVE,
+                            "support_tolerance": POSITIVE, "floor_height": FINITE}
+"""Field of :class:`FeasibilityConfig` → its range."""
+
+
+def check_config(config: FeasibilityConfig) -> None:
+    """Every number of ``config`` finite and in its range (:data:`RANGES`).
+
+    Raises:
+        ValueError: e.g. ``FeasibilityConfig.floor_height must be finite, got nan``.
+    """
+    check_fields(config, RANGES)
 
 
 @dataclass

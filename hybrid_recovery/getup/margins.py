@@ -23,6 +23,7 @@ from hybrid_recovery.getup.contact_map import floor_contacts
 from hybrid_recovery.getup.feasibility import FeasibilityConfig, static_feasibility
 from hybrid_recovery.getup.move_executor import MOVING
 from hybrid_recovery.getup.single_move import SingleMove
+from hybrid_recovery.sim.divergence import SimulationDiverged, divergence
 
 
 @dataclass(frozen=True)
@@ -104,6 +105,8 @@ def margins_along(model: mujoco.MjModel, data: mujoco.MjData, moves: SingleMove,
 
     Raises:
         ValueError: ``every`` or ``timeout`` not > 0.
+        SimulationDiverged: the simulation diverged
+            (:func:`~hybrid_recovery.sim.divergence.divergence`).
     """
     for name, value in (("every", every), ("timeout", timeout)):
         if not value > 0.0:
@@ -125,7 +128,11 @@ def margins_along(model: mujoco.MjModel, data: mujoco.MjData, moves: SingleMove,
                                             f"{moves.move.name}/{phase.keyframe}",
                                             phase.dynamic, float(data.time) - start, config))
                 next_sample += every
+        t = float(data.time)
         mujoco.mj_step(model, data)
+        if (why := divergence(data)) is not None:  # MuJoCo reset it: the rest means nothing
+            raise SimulationDiverged(f"the simulation diverged at t = "
+                                     f"{t + model.opt.timestep:.3f} s during the move ({why})")
     return samples
 
 

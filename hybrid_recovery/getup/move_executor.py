@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from hybrid_recovery.checks import NON_NEGATIVE, Range, check_fields
 from hybrid_recovery.control.diagnostics import Event
 from hybrid_recovery.control.policy_controller import pd_torque
 from hybrid_recovery.getup.ground_state import GROUND_STATES, classify, read_ground_pose
@@ -44,13 +45,29 @@ class MoveConfig:
     settle_time: float = 0.5
 
     def __post_init__(self) -> None:
-        if self.goal not in GROUND_STATES:
-            raise ValueError(f"unknown goal state '{self.goal}': use one of {list(GROUND_STATES)}")
-        reachable = sorted({m.end for m in MOVES.values()})
-        if self.goal not in reachable:
-            raise ValueError(f"no move ends in '{self.goal}': the moves reach {reachable}")
-        if not 0.0 < self.range_factor <= 1.0:
-            raise ValueError(f"range_factor must be in (0, 1], got {self.range_factor}")
+        check_config(self)
+
+
+RANGES: dict[str, Range] = {"range_factor": (0.0, False, 1.0),
+                            "max_moves": (1, True, float("inf")), "settle_time": NON_NEGATIVE}
+"""Field of :class:`MoveConfig` → its range."""
+
+
+def check_config(config: MoveConfig) -> None:
+    """The goal is a ground state some move ends in; every number finite and in its range
+    (:data:`RANGES`).
+
+    Raises:
+        ValueError: ``unknown goal state ...``, ``no move ends in ...``, or e.g.
+            ``MoveConfig.range_factor must be > 0 and <= 1, got 1.2``.
+    """
+    if config.goal not in GROUND_STATES:
+        raise ValueError(f"unknown goal state '{config.goal}': use one of "
+                         f"{list(GROUND_STATES)}")
+    reachable = sorted({m.end for m in MOVES.values()})
+    if config.goal not in reachable:
+        raise ValueError(f"no move ends in '{config.goal}': the moves reach {reachable}")
+    check_fields(config, RANGES)
 
 
 class GroundMoves:

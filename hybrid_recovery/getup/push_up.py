@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
+from hybrid_recovery.checks import NON_NEGATIVE, POSITIVE, Range, check_fields
 from hybrid_recovery.control.wbc_qp import Task
 from hybrid_recovery.getup.contact_map import floor_contacts
 from hybrid_recovery.getup.contact_qp import ContactQP, ContactQpConfig, ContactQpSolution
@@ -88,10 +89,29 @@ class PushUpConfig:
     qp: ContactQpConfig = field(default_factory=ContactQpConfig)
 
     def __post_init__(self) -> None:
-        if self.keyframe not in KEYFRAMES:
-            raise ValueError(f"unknown keyframe '{self.keyframe}': use one of {sorted(KEYFRAMES)}")
-        if not self.duration > 0.0:
-            raise ValueError(f"duration must be > 0, got {self.duration}")
+        check_config(self)
+
+
+RANGES: dict[str, Range] = {
+    "duration": POSITIVE, "pelvis_height": POSITIVE, "kp_posture": NON_NEGATIVE,
+    "kd_posture": NON_NEGATIVE, "w_posture": NON_NEGATIVE, "kp_height": NON_NEGATIVE,
+    "kd_height": NON_NEGATIVE, "w_height": NON_NEGATIVE, "kd_pelvis": NON_NEGATIVE,
+    "w_pelvis": NON_NEGATIVE, "force_update": POSITIVE, "kp_landing": NON_NEGATIVE,
+    "kd_landing": NON_NEGATIVE, "w_landing": NON_NEGATIVE, "range_factor": (0.0, False, 1.0)}
+"""Field of :class:`PushUpConfig` → its range."""
+
+
+def check_config(config: PushUpConfig) -> None:
+    """The keyframe is known; every number finite and in its range (:data:`RANGES`).
+
+    Raises:
+        ValueError: ``unknown keyframe 'squat': ...``, or e.g. ``PushUpConfig.duration
+            must be > 0, got 0.0``.
+    """
+    if config.keyframe not in KEYFRAMES:
+        raise ValueError(f"unknown keyframe '{config.keyframe}': use one of "
+                         f"{sorted(KEYFRAMES)}")
+    check_fields(config, RANGES)
 
 
 def _smoothstep(t: float) -> tuple[float, float, float]:

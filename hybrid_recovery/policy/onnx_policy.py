@@ -9,6 +9,7 @@ turns it into joint targets.
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +21,17 @@ from hybrid_recovery.robot.constants import NUM_JOINTS
 
 DESCRIPTION = "policy.json"
 """File name of the description next to the network."""
+
+
+def _onnxruntime_reason(err: Exception) -> str:
+    """onnxruntime's error without its prefix and the path it repeats:
+    ``INVALID_PROTOBUF: Protobuf parsing failed.``"""
+    text = str(err).strip()
+    found = re.match(r"\[ONNXRuntimeError\] : \d+ : (\w+) : (.*)", text, re.S)
+    if found is None:
+        return f"{type(err).__name__}: {text}"
+    code, detail = found.groups()
+    return f"{code}: {detail.rsplit('failed:', 1)[-1].strip()}"
 
 
 class OnnxPolicy:
@@ -42,8 +54,10 @@ class OnnxPolicy:
     Raises:
         FileNotFoundError: No network, or no description where one is required.
         ValueError: The description does not match this robot or version
-            (:func:`load_policy_description`), the graph does not take one input of 87
-            features, or, with a description, does not declare 27 actions.
+            (:func:`load_policy_description`), onnxruntime cannot load the file (damaged,
+            not ONNX, or its external weights missing; the message names the file), the
+            graph does not take one input of 87 features, or, with a description, does
+            not declare 27 actions.
     """
 
     def __init__(self, path: str | Path, threads: int = 1,
@@ -66,8 +80,12 @@ class OnnxPolicy:
         options.intra_op_num_threads = threads
         options.inter_op_num_threads = 1
         options.execution_mode = ort.ExecutionMode.ORT_SEQUENTIAL
-        self.session = ort.InferenceSession(str(self.path), options,
-                                            providers=["CPUExecutionProvider"])
+        try:
+            self.session = ort.InferenceSession(str(self.path), options,
+                                                providers=["CPUExecutionProvider"])
+        except Exception as err:  # noqa: BLE001 - onnxruntime's own exception types
+            raise ValueError(f"ONNX policy {self.path} is damaged or unreadable "
+                             f"({_onnxruntime_reason(err)})") from err
         inputs, outputs = self.session.get_inputs(), self.session.get_outputs()
         if len(inputs) != 1 or not inputs[0].shape or inputs[0].shape[-1] != ACTOR_OBS_DIM:
             raise ValueError(f"{self.path.name} takes {[i.shape for i in inputs]}, expected one "

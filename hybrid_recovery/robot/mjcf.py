@@ -57,8 +57,9 @@ def load_spec(
 
     Raises:
         FileNotFoundError: The file does not exist.
-        ValueError: The file is not valid MJCF, or a joint of ``constants.JOINT_NAMES``
-            is not in it (the message names the file).
+        ValueError: The file is not valid MJCF, a joint of ``constants.JOINT_NAMES``
+            is not in it, or its first joint is not the floating base's free joint (the
+            message names the file).
     """
     path = H1_2_MJCF if path is None else Path(path)
     if not path.is_file():
@@ -71,6 +72,9 @@ def load_spec(
     for name in constants.JOINT_NAMES:
         if name not in joint_names:
             raise ValueError(f"H1-2 MJCF {path} has no joint named '{name}'")
+    if spec.joints[0].type != mujoco.mjtJoint.mjJNT_FREE:  # qpos[0:7] is the floating base
+        raise ValueError(f"H1-2 MJCF {path} has no free joint before its other joints: the "
+                         "floating base needs one (<freejoint/> in the pelvis body)")
 
     if timestep is not None:
         spec.option.timestep = timestep

@@ -3,16 +3,18 @@
 from __future__ import annotations
 
 import json
-import os
 import sys
-import tempfile
-from collections.abc import Callable
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 import torch
 
+from hybrid_recovery.files import atomic_write, atomic_write_text
 from hybrid_recovery.policy.description import check_meta
+
+__all__ = ["LATEST", "RUN_CONFIG", "atomic_save", "atomic_write_text", "check_state_shapes",
+           "load_checkpoint", "load_latest", "numbered_checkpoints", "read_run_config"]
 
 LATEST = "latest.pt"
 """File name of the newest checkpoint in a run directory."""
@@ -25,26 +27,48 @@ def atomic_save(obj: Any, path: str | Path) -> None:
 
     A crash at any point leaves either the old file or the new one, never a partial one.
     """
-    _atomic_write(path, "wb", lambda handle: torch.save(obj, handle))
+    atomic_write(path, "wb", lambda handle: torch.save(obj, handle))
 
 
-def atomic_write_text(text: str, path: str | Path) -> None:
-    """Writes ``text`` to a temporary file next to ``path``, fsync, then renames it."""
-    _atomic_write(path, "w", lambda handle: handle.write(text))
+def check_state_shapes(saved: Mapping[str, Any], model: Mapping[str, Any], part: str,
+                       source: str | Path, variant: str | None = None) -> None:
+    """Refuses a saved state dict that does not fit a model's, before ``load_state_dict``
+    prints torch's many-line size mismatch.
+
+    Args:
+        saved: The checkpoint's state dict of one part (e.g. ``actor_state_dict``).
+        model: The model's own ``state_dict()``.
+        part: The part's name for the message (``actor``, ``critic``).
+        source: The checkpoint file, for the message.
+        variant: The checkpoint's training variant (``infos.meta.variant``), if known.
+
+    Raises:
+        ValueError: one line naming the file, the variant, the part and the first
+            tensor whose shape differs (or that one side lacks), e.g. ``checkpoint
+            runs/a/latest.pt (variant 'wide') does not fit this model's actor:
+            mlp.0.weight is [512, 87] there, [256, 87] here (2 tensors differ)``.
+    """
+    problems = []
+    for name in sorted(set(saved) | set(model)):
+        if name not in model:
+            problems.append(f"{name} is there, not here")
+        elif name not in saved:
+            problems.append(f"{name} is here, not there")
+        else:
+            there, here = _shape(saved[name]), _shape(model[name])
+            if there != here:
+                problems.append(f"{name} is {there} there, {here} here")
+    if not problems:
+        return
+    of = f" (variant {variant!r})" if variant else ""
+    more = f" ({len(problems)} tensors differ)" if len(problems) > 1 else ""
+    raise ValueError(f"checkpoint {source}{of} does not fit this model's {part}: "
+                     f"{problems[0]}{more}")
 
 
-def _atomic_write(path: str | Path, mode: str, write: Callable[[Any], object]) -> None:
-    path = Path(path)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, mode) as handle:
-            write(handle)
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+def _shape(value: Any) -> list[int] | None:
+    shape = getattr(value, "shape", None)
+    return None if shape is None else [int(n) for n in shape]
 
 
 def load_checkpoint(path: str | Path) -> dict:

@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+import os
 from dataclasses import asdict, dataclass, field, fields, replace
-from typing import Any, get_type_hints
+from typing import TYPE_CHECKING, Any, get_type_hints
 
 from hybrid_recovery.envs.config_values import checked_value
 from hybrid_recovery.envs.removed import drop_removed
+
+if TYPE_CHECKING:
+    from hybrid_recovery.training.precision import PrecisionChoice
 
 
 @dataclass
@@ -31,15 +35,17 @@ class PPOConfig:
     use_clipped_value_loss: bool = True
     symmetry: bool = False
     """Left/right mirror data augmentation (rsl-rl's symmetry extension); off as in the paper."""
-    mixed_precision: bool = True
+    mixed_precision: bool | None = None
     """bf16 autocast on the CPU for the update's forward passes and losses (rsl-rl's
-    ``use_mixed_precision``). Weights, gradients and the Adam state stay float32; the
-    rollout's inference stays float32. Beyond the paper: it halves the update, and from
-    scratch it learned as float32 did per env step (two seeds, ``research/ab_update.py``,
-    training/README.md "Training throughput"). Its rounding puts noise into PPO's ratio
-    that grows as the action noise σ shrinks (mean |r − 1| 0.065 at σ 0.54): below
-    σ ≈ 0.3 prefer float32 (``--no-mixed-precision``). A run saved without this field
-    trained in float32 and resumes so (:func:`train_config_from_dict`)."""
+    ``use_mixed_precision``; True), or float32 (False). Weights, gradients and the Adam
+    state stay float32; the rollout's inference stays float32. None: chosen by the
+    machine at every start and resume, the faster of the two measured on the run's
+    networks (:func:`~hybrid_recovery.training.precision.choose_precision`; recorded per
+    segment): bf16 halves the update on a CPU with native bf16 and is several times
+    slower than float32 on one without. Beyond the paper; bf16's rounding puts noise
+    into PPO's ratio that grows as the action noise σ shrinks (docs/experiments.md,
+    training throughput). A run saved without this field trained in float32 and resumes
+    so (:func:`train_config_from_dict`)."""
 
 
 @dataclass
@@ -67,6 +73,42 @@ class TeacherConfig:
     rollout's own means, which move with the actor, as well (docs/experiments.md §11)."""
 
 
+@dataclass(frozen=True)
+class StageConfig:
+    """When a staged run (:mod:`~hybrid_recovery.training.stages`) moves on; paper §III-F
+    advances its curriculum on success rates the same way."""
+
+    probe_interval: int = 200
+    """Iterations of the ``recovery`` stage between probes (≈ 5 M env steps at 1024 envs)."""
+    probe_episodes: int = 6
+    """Hybrid trials per pose in one probe."""
+    probe_duration: float = 25.0
+    """Length of a probe or recording trial [s] (settle, ground moves, then the policy)."""
+    rise_rate: float = 0.5
+    """Share of a pose's probe trials that must stand up for the run to record rises."""
+    record_episodes: int = 12
+    """Hybrid trials per pose of the recording."""
+    min_kept: int = 4
+    """Fewest kept rises per pose for the ``rises`` stage; fewer: back to ``recovery``."""
+    poses: tuple[str, ...] = ("sitting", "supine")
+    """Poses whose rises are probed and recorded."""
+
+    def __post_init__(self) -> None:
+        for name in ("probe_interval", "probe_episodes", "record_episodes", "min_kept"):
+            if int(getattr(self, name)) < 1:
+                raise ValueError(f"StageConfig.{name} must be >= 1, got {getattr(self, name)}")
+        if not 0.0 < self.rise_rate <= 1.0:
+            raise ValueError(f"StageConfig.rise_rate must be in (0, 1], got {self.rise_rate}")
+        if not 0.0 < self.probe_duration < float("inf"):
+            raise ValueError(f"StageConfig.probe_duration must be a finite number > 0, got "
+                             f"{self.probe_duration}")
+        if self.min_kept > self.record_episodes:
+            raise ValueError(f"StageConfig.min_kept ({self.min_kept}) exceeds record_episodes "
+                             f"({self.record_episodes})")
+        if not self.poses:
+            raise ValueError("StageConfig.poses must name at least one pose")
+
+
 @dataclass
 class TrainConfig:
     """A training run."""
@@ -89,9 +131,14 @@ class TrainConfig:
     """Iterations between checkpoints; a kill loses at most this many."""
     keep_checkpoints: int = 3
     """Numbered checkpoints kept besides ``latest.pt``."""
+    milestone_interval: int | None = None
+    """Checkpoints of iterations that are multiples of this (and of ``save_interval``)
+    are kept as well, to evaluate the run's progress later; None: none beyond
+    ``keep_checkpoints``."""
     seed: int = 0
-    num_threads: int = 2
-    """Physics threads (MuJoCo's Batch), and torch threads unless ``torch_threads`` is set."""
+    num_threads: int = field(default_factory=lambda: usable_cpus())
+    """Physics threads (MuJoCo's Batch), and torch threads unless ``torch_threads`` is set;
+    default: the CPUs this process may run on (:func:`usable_cpus`)."""
     torch_threads: int | None = None
     """Torch intra-op threads for inference and the PPO update; None: ``num_threads``."""
     backend: str = "batch"
@@ -102,6 +149,18 @@ class TrainConfig:
     teacher: TeacherConfig = field(default_factory=TeacherConfig)
     env_overrides: dict[str, Any] = field(default_factory=dict)
     """Dotted EnvConfig overrides applied after the variant's."""
+    stages: StageConfig | None = None
+    """A staged recipe's stage conditions (:mod:`~hybrid_recovery.training.stages`);
+    None: one stage, the settings above throughout."""
+
+
+def usable_cpus() -> int:
+    """The CPUs this process may run on (its affinity; ``os.cpu_count()`` where the
+    platform has none)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:
+        return os.cpu_count() or 1
 
 
 REMOVED_TEACHER = frozenset({"anchor_to_start"})
@@ -120,6 +179,7 @@ def train_config_from_dict(data: dict[str, Any]) -> TrainConfig:
     """
     data = dict(data)
     for keys, cls, where in ((set(data) - {"ppo", "teacher"}, TrainConfig, "train_config"),
+                             (set(data.get("stages") or {}), StageConfig, "train_config.stages"),
                              (set(data.get("ppo", {})), PPOConfig, "train_config.ppo"),
                              (set(data.get("teacher", {})) - REMOVED_TEACHER, TeacherConfig,
                               "train_config.teacher")):
@@ -131,6 +191,8 @@ def train_config_from_dict(data: dict[str, Any]) -> TrainConfig:
                        **data.pop("ppo", {})})
     teacher = TeacherConfig(**{k: v for k, v in data.pop("teacher", {}).items()
                                if k not in REMOVED_TEACHER})
+    if data.get("stages") is not None:
+        data["stages"] = StageConfig(**{**data["stages"], "poses": tuple(data["stages"]["poses"])})
     if "hidden_dims" in data:
         data["hidden_dims"] = tuple(data["hidden_dims"])
     if "env_overrides" in data:
@@ -183,11 +245,23 @@ def amend_train_config(cfg: TrainConfig, changes: dict[str, Any]) -> TrainConfig
                    env_overrides=env, **train)
 
 
-def runner_dict(cfg: TrainConfig) -> dict[str, Any]:
-    """The rsl-rl-lib 5 ``OnPolicyRunner`` configuration for ``cfg``."""
+def runner_dict(cfg: TrainConfig, precision: PrecisionChoice | None = None
+                ) -> dict[str, Any]:
+    """The rsl-rl-lib 5 ``OnPolicyRunner`` configuration for ``cfg``; ``precision``
+    decides the update's precision where ``cfg.ppo.mixed_precision`` is None.
+
+    Raises:
+        ValueError: ``mixed_precision`` None and no ``precision``.
+    """
     ppo = asdict(cfg.ppo)
     symmetry = ppo.pop("symmetry")
-    ppo["use_mixed_precision"] = ppo.pop("mixed_precision")
+    mixed = ppo.pop("mixed_precision")
+    if mixed is None:
+        if precision is None:
+            raise ValueError("ppo.mixed_precision is None (chosen by the machine): pass "
+                             "the PrecisionChoice of choose_precision")
+        mixed = precision.mixed_precision
+    ppo["use_mixed_precision"] = bool(mixed)
     algorithm: dict[str, Any] = {"class_name": "hybrid_recovery.training.teacher:TeacherPPO"
                                  if cfg.teacher.learning_rate > 0.0 else
                                  "hybrid_recovery.training.split_update:SplitUpdatePPO", **ppo}

@@ -10,14 +10,20 @@ import torch
 from rsl_rl.models import MLPModel
 from tensordict import TensorDict
 
+from hybrid_recovery.files import refuse_existing, staged_directory
 from hybrid_recovery.observation import ACTOR_OBS_DIM, ACTOR_TERMS
 from hybrid_recovery.policy.description import POLICY_FORMAT, load_policy_description
 from hybrid_recovery.robot import constants
 from hybrid_recovery.training.checkpoint import load_checkpoint, load_latest
 from hybrid_recovery.training.record import FINAL_KEY, plot_curves, training_record
 
-__all__ = ["POLICY_FORMAT", "actor_from_checkpoint", "export_policy", "load_policy_description",
-           "policy_description"]
+__all__ = ["EXPORTED_FILES", "POLICY_FORMAT", "actor_from_checkpoint", "export_policy",
+           "load_policy_description", "policy_description"]
+
+EXPORTED_FILES = ("policy.onnx", "policy.onnx.data", "policy.json", "training_record.json",
+                  "curves.png")
+"""Every file an export may write (``policy.onnx.data`` when torch splits the weights,
+``curves.png`` when the run's logs reach the checkpoint)."""
 
 
 def actor_from_checkpoint(data: dict) -> MLPModel:
@@ -62,7 +68,8 @@ def policy_description(meta: dict, env_steps: int | None, iteration: int | None)
 
 def export_policy(run_dir: str | Path, out_dir: str | Path | None = None,
                   checkpoint: str | Path | None = None,
-                  history: Sequence[str | Path] = ()) -> Path:
+                  history: Sequence[str | Path] = (), force: bool = False,
+                  record: bool = True) -> Path:
     """Writes ``policy.onnx`` (+ ``policy.onnx.data`` if torch splits the weights),
     ``policy.json`` and the training record (``training_record.json``, ``curves.png``)
     for the newest checkpoint of ``run_dir`` (``latest.pt``, else the newest intact
@@ -70,30 +77,53 @@ def export_policy(run_dir: str | Path, out_dir: str | Path | None = None,
     ``run_dir`` was forked from, oldest first; the record's curves then start at the
     lineage's root.
 
+    The files are written into a staging directory beside the output and moved there
+    only once all of them are complete (:func:`~hybrid_recovery.files.staged_directory`):
+    a failed export writes nothing, an interrupted one leaves the old files or the new.
+
+    Args:
+        record: Write the training record and curves (off: the policy files alone, as a
+            staged recipe's probes need them).
+        force: Replace an exported policy already in the output directory (its files of
+            :data:`EXPORTED_FILES` that this export does not write are removed).
+
     Returns:
         The output directory.
+
+    Raises:
+        FileExistsError: the output directory already holds an exported policy and
+            ``force`` is not set: ``<dir> already holds an exported policy
+            (policy.onnx); pass --force to overwrite it``.
+        NotADirectoryError: the output is a file.
     """
     run_dir = Path(run_dir)
-    data = load_checkpoint(checkpoint) if checkpoint else load_latest(run_dir)[0]
     out = Path(out_dir) if out_dir else run_dir / "export"
-    out.mkdir(parents=True, exist_ok=True)
+    if out.exists() and not out.is_dir():
+        raise NotADirectoryError(f"export output {out} is a file, not a directory")
+    held = [name for name in EXPORTED_FILES if (out / name).exists()]
+    if held:
+        refuse_existing(out, force, f"an exported policy ({', '.join(held)})")
+    data = load_checkpoint(checkpoint) if checkpoint else load_latest(run_dir)[0]
     actor = actor_from_checkpoint(data)
-    onnx_model = actor.as_onnx(verbose=False)
-    onnx_model.eval()
-    torch.onnx.export(onnx_model, onnx_model.get_dummy_inputs(), str(out / "policy.onnx"),
-                      export_params=True, opset_version=18, input_names=["obs"],
-                      output_names=["actions"], dynamo=False)
     meta = data["infos"]["meta"]
     desc = policy_description(meta, data["infos"].get("env_steps"), data.get("iter"))
-    (out / "policy.json").write_text(json.dumps(desc, indent=2))
-    record = training_record(run_dir, data, history)
-    (out / "training_record.json").write_text(json.dumps(record, indent=2, default=str))
-    if record[FINAL_KEY]:
-        plot_curves({run_dir.name: [*history, run_dir]}, out / "curves.png",
-                    upto=int(data["iter"]))
-    else:
-        (out / "curves.png").unlink(missing_ok=True)  # not an earlier export's
-        print(f"[hybrid-recovery] no training logs up to iteration {data['iter']} in "
-              f"{run_dir}: no curves.png (add the runs that logged them with --history)",
-              flush=True)
+    with staged_directory(out, stale=EXPORTED_FILES) as staging:
+        onnx_model = actor.as_onnx(verbose=False)
+        onnx_model.eval()
+        torch.onnx.export(onnx_model, onnx_model.get_dummy_inputs(),
+                          str(staging / "policy.onnx"), export_params=True, opset_version=18,
+                          input_names=["obs"], output_names=["actions"], dynamo=False)
+        (staging / "policy.json").write_text(json.dumps(desc, indent=2))
+        if not record:
+            return out
+        lineage = training_record(run_dir, data, history)
+        (staging / "training_record.json").write_text(
+            json.dumps(lineage, indent=2, default=str))
+        if lineage[FINAL_KEY]:
+            plot_curves({run_dir.name: [*history, run_dir]}, staging / "curves.png",
+                        upto=int(data["iter"]))
+        else:
+            print(f"[hybrid-recovery] no training logs up to iteration {data['iter']} in "
+                  f"{run_dir}: no curves.png (add the runs that logged them with --history)",
+                  flush=True)
     return out

@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import json
 import os
 import subprocess
 import time
-from collections.abc import Collection
+from collections.abc import Callable, Collection
 from pathlib import Path
 
 import torch
@@ -15,6 +16,7 @@ from rsl_rl.runners import OnPolicyRunner
 
 from hybrid_recovery.envs import RecoveryEnv, apply_overrides, default_config
 from hybrid_recovery.envs.config import EnvConfig
+from hybrid_recovery.files import exclusive_lock
 from hybrid_recovery.observation import ACTOR_OBS_DIM, ACTOR_TERMS
 from hybrid_recovery.robot.constants import JOINT_NAMES
 from hybrid_recovery.sim.backend import check_backend
@@ -23,6 +25,7 @@ from hybrid_recovery.training.checkpoint import (
     RUN_CONFIG,
     atomic_save,
     atomic_write_text,
+    check_state_shapes,
     load_checkpoint,
     load_latest,
     numbered_checkpoints,
@@ -36,7 +39,9 @@ from hybrid_recovery.training.config import (
 )
 from hybrid_recovery.training.distributed import Rank, join_cpu_group, process_rank
 from hybrid_recovery.training.graceful_stop import StopRequest, TrainingStopped, stop_on_signals
+from hybrid_recovery.training.precision import PrecisionChoice, choose_precision, fixed_precision
 from hybrid_recovery.training.record import hardware
+from hybrid_recovery.training.stages import RISES_DIR, STATE_FILE, StageState, stage_config
 from hybrid_recovery.training.teacher import Teacher, TeacherPPO, make_teacher
 from hybrid_recovery.training.variants import variant_overrides
 
@@ -52,14 +57,22 @@ class RecoveryRunner(OnPolicyRunner):
                  meta: dict, keep: int = 3, device: str = "cpu") -> None:
         super().__init__(env, train_cfg, log_dir=log_dir, device=device)
         self.meta, self.keep = meta, keep
+        self.milestone_interval: int | None = None
+        """Checkpoints of iterations that are multiples of this are never removed."""
         self.compute_s: float | None = 0.0  # None: a resumed run whose earlier time is unknown
-        self.segments = [{"iteration": 0, "hardware": hardware()}]
+        self.segments = [{"iteration": 0, "hardware": hardware(),
+                          "precision": meta.get("precision")}]
         self._clock = time.time()
         self.stop = StopRequest()
+        self.after_iteration: Callable[[RecoveryRunner, int], None] | None = None
+        """Called with the runner and the iteration after each iteration is logged (a
+        staged recipe's probes); it may save and raise to end the run."""
         log = self.logger.log  # called by learn() at the end of every iteration
 
         def log_then_stop(**iteration) -> None:
             log(**iteration)
+            if self.after_iteration is not None:
+                self.after_iteration(self, int(iteration["it"]))
             if self._stop_agreed():
                 self._stop_saved(int(iteration["it"]))
 
@@ -119,13 +132,20 @@ class RecoveryRunner(OnPolicyRunner):
         atomic_save(saved, path)
         run = Path(path).parent
         atomic_save(saved, run / LATEST)
+        every = self.milestone_interval
         for old in numbered_checkpoints(run)[:-self.keep]:
-            old.unlink(missing_ok=True)
+            if every is None or int(old.stem[6:]) % every:
+                old.unlink(missing_ok=True)
 
     def load_run(self, path: Path) -> None:
         """Resumes from a checkpoint: weights, optimiser, normalisers, curriculum, bridge and
         rise levels, iteration."""
         data = load_checkpoint(path)
+        variant = data.get("infos", {}).get("meta", {}).get("variant")
+        check_state_shapes(data["actor_state_dict"], self.alg.actor.state_dict(), "actor",
+                           path, variant)
+        check_state_shapes(data["critic_state_dict"], self.alg.critic.state_dict(), "critic",
+                           path, variant)
         self.alg.load(data, None, True)
         self.current_learning_iteration = int(data["iter"]) + 1
         self.env.curriculum.load_state_dict(data["infos"]["curriculum"])
@@ -139,7 +159,8 @@ class RecoveryRunner(OnPolicyRunner):
             self.teacher.load_state_dict(data["infos"]["teacher"])
         self.compute_s = data["infos"].get("compute_time_s")
         self.segments = [*data["infos"].get("segments", []),
-                         {"iteration": self.current_learning_iteration, "hardware": hardware()}]
+                         {"iteration": self.current_learning_iteration, "hardware": hardware(),
+                          "precision": self.meta.get("precision")}]
         self._clock = time.time()
 
 
@@ -151,6 +172,19 @@ def make_env_config(cfg: TrainConfig) -> EnvConfig:
     env_cfg.num_envs, env_cfg.seed, env_cfg.num_threads = cfg.num_envs, cfg.seed, cfg.num_threads
     env_cfg.backend, env_cfg.device = cfg.backend, cfg.device
     return env_cfg
+
+
+def update_precision(cfg: TrainConfig, critic_dim: int, num_actions: int) -> PrecisionChoice:
+    """The PPO update's precision for ``cfg``: its own setting, else (None) bf16 on a GPU
+    and the faster of the two measured on the run's networks on a CPU
+    (:func:`~hybrid_recovery.training.precision.choose_precision`, with torch's thread
+    count as set for the update)."""
+    if cfg.ppo.mixed_precision is not None:
+        return fixed_precision(cfg.ppo.mixed_precision)
+    if cfg.device != "cpu":
+        return PrecisionChoice(True, "bf16: the learner is on a GPU")
+    batch = cfg.num_envs * cfg.num_steps_per_env // cfg.ppo.num_mini_batches
+    return choose_precision((ACTOR_OBS_DIM, critic_dim), cfg.hidden_dims, num_actions, batch)
 
 
 def _git_commit() -> str:
@@ -204,7 +238,8 @@ def _resumed_config(run_dir: Path, cfg: TrainConfig,
     return saved
 
 
-_RUN_FILES = (LATEST, RUN_CONFIG, "model_*.pt", "events.out.tfevents.*")
+_RUN_FILES = (LATEST, RUN_CONFIG, STATE_FILE, "model_*.pt", "events.out.tfevents.*",
+              f"{RISES_DIR}/*.npz")
 """What a training run writes into its directory (``--force`` removes these)."""
 
 
@@ -212,9 +247,15 @@ def _run_files(run_dir: Path) -> list[Path]:
     return sorted(p for pattern in _RUN_FILES for p in run_dir.glob(pattern))
 
 
+RUN_LOCK_HINT = "wait for it to end, or stop it (kill PID: it saves and stops)"
+"""What a second writer of a run directory is told."""
+
+
 def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
           amend: dict | None = None, force: bool = False,
-          given: Collection[str] | None = None, rank: Rank | None = None) -> RecoveryRunner:
+          given: Collection[str] | None = None, rank: Rank | None = None,
+          after_iteration: Callable[[RecoveryRunner, int], None] | None = None
+          ) -> RecoveryRunner:
     """Trains (or resumes) a run in ``run_dir`` up to ``cfg.iterations`` iterations.
 
     The run directory holds ``config.json`` (resolved train and env configs, git commit,
@@ -234,10 +275,20 @@ def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
             :mod:`~hybrid_recovery.training.distributed`); None: read from the
             environment. Each rank simulates its own envs with seed ``seed + rank`` on its
             GPU; only rank 0 writes the run directory.
+        after_iteration: see :attr:`RecoveryRunner.after_iteration`.
+
+    The process that writes the run directory holds its lock
+    (:func:`~hybrid_recovery.files.exclusive_lock`) throughout: a second writer of the
+    same directory is refused at once, naming the holder's pid.
+
+    A staged run (``cfg.stages``) trains with the settings of the stage its
+    ``stages.json`` names (a new run: the first), :func:`~.stages.stage_config`;
+    ``config.json`` keeps the recipe's own settings and names the stage.
 
     Raises:
         FileExistsError: a new run (no ``resume``, no ``force``) in a directory that
             holds one; nothing is touched.
+        FileLockedError: another process trains in ``run_dir``.
         FileNotFoundError: resuming a directory without a checkpoint.
         ValueError: ``amend`` without ``resume``, ``resume`` with ``force``, no intact
             checkpoint, a damaged ``config.json`` (named), or a bad setting.
@@ -247,6 +298,15 @@ def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
     run_dir = Path(run_dir)
     check_backend(cfg.backend, cfg.device)
     rank = rank or process_rank()
+    lock = exclusive_lock(run_dir, RUN_LOCK_HINT) if rank.writes else contextlib.nullcontext()
+    with lock:
+        return _train(run_dir, cfg, resume, amend, force, given, rank, after_iteration)
+
+
+def _train(run_dir: Path, cfg: TrainConfig, resume: bool, amend: dict | None, force: bool,
+           given: Collection[str] | None, rank: Rank,
+           after_iteration: Callable[[RecoveryRunner, int], None] | None) -> RecoveryRunner:
+    """:func:`train` with the run directory's lock held."""
     if amend and not resume:
         raise ValueError("amendments change a resumed run; give a new run its settings "
                          "as options instead")
@@ -275,6 +335,13 @@ def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
             amendments.append({"iteration": start, "changes": dict(amend),
                                "git_commit": _git_commit()})
             print(f"[hybrid-recovery] amending the run's settings: {amend}", flush=True)
+    recipe_cfg, stage_state = cfg, None
+    if cfg.stages is not None:
+        stage_state = (StageState.load(run_dir) if resume else None) or StageState()
+        if stage_state.stage == "record":
+            raise ValueError(f"{run_dir} is in stage 'record': its rises are recorded, not "
+                             f"trained (hybrid-recovery train --resume records them)")
+        cfg = stage_config(cfg, stage_state.stage, run_dir, cfg.stages)
     env_cfg = make_env_config(cfg)  # every setting checked before a file is written
     torch.manual_seed(rank.seed(cfg.seed))
     torch.set_num_threads(cfg.torch_threads or cfg.num_threads)
@@ -283,15 +350,25 @@ def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
     critic_dim = int(env.get_observations()["critic"].shape[1])
     teacher = make_teacher(cfg.teacher, env, rank.seed(cfg.seed)) \
         if cfg.teacher.learning_rate > 0.0 else None
-    meta = {**policy_meta(cfg, env_cfg, critic_dim), "amendments": amendments}
+    precision = update_precision(cfg, critic_dim, env.num_actions)
+    print(f"[hybrid-recovery] update precision {precision.reason}", flush=True)
+    meta = {**policy_meta(recipe_cfg, env_cfg, critic_dim), "amendments": amendments,
+            "precision": precision.as_dict()}
+    if stage_state is not None:
+        meta["stage"] = stage_state.stage
     if rank.writes:
         if force and not resume:
             for old in existing:
                 old.unlink()
         run_dir.mkdir(parents=True, exist_ok=True)
         atomic_write_text(json.dumps(meta, indent=2, default=str), run_dir / RUN_CONFIG)
-    runner = RecoveryRunner(env, runner_dict(cfg), str(run_dir) if rank.writes else None, meta,
+        if stage_state is not None:
+            stage_state.save(run_dir)
+    runner = RecoveryRunner(env, runner_dict(cfg, precision),
+                            str(run_dir) if rank.writes else None, meta,
                             cfg.keep_checkpoints, device=rank.learner_device(cfg.device))
+    runner.after_iteration = after_iteration
+    runner.milestone_interval = cfg.milestone_interval
     if teacher is not None:
         assert isinstance(runner.alg, TeacherPPO)
         runner.alg.teacher = teacher

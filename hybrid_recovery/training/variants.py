@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import asdict, fields, replace
 from typing import Any
 
-from hybrid_recovery.training.config import PPOConfig, TeacherConfig, TrainConfig
+from hybrid_recovery.training.config import PPOConfig, StageConfig, TeacherConfig, TrainConfig
 
 RECOVERY_ENV: dict[str, Any] = {
     "pose_weights": {"standing": 0.5, "squatting": 0.5, "kneeling": 1.5, "half_kneeling": 1.0,
@@ -34,17 +34,13 @@ paper's setting, pose weights toward the hard poses, the flat-feet reward r_feet
 pull of 0.8 m g for prone starts annealed by their stand-ups, and start-pose bridges from
 squatting to sitting and supine in 16 levels (unused for a pose with recorded rises)."""
 
-RISE_FILES = ("rises/sitting.npz", "rises/supine.npz")
-"""Recorded hybrid rises of ``recovery_rises``, relative to the working directory; write
-them with ``hybrid-recovery getup record --pose sitting --episodes N --out
-rises/sitting.npz`` (and supine)."""
-
 VARIANTS: dict[str, dict[str, Any]] = {
     "full": {},
     # the recipe of the lineage's first 12,650 iterations (no recorded rises)
     "recovery": RECOVERY_ENV,
-    # the shipped recipe: it with starts along recorded rises for sitting and supine
-    "recovery_rises": {**RECOVERY_ENV, "rises.files": list(RISE_FILES), "rises.levels": 16},
+    # the recipe in three stages: it, its own rises recorded, starts along them and the
+    # teacher (hybrid_recovery.training.stages)
+    "recovery_rises": RECOVERY_ENV,
     # the paper's ablation: all three removed together
     "reduced": {"privileged_critic": False, "rewards.use_capture_point": False,
                 "curriculum.enabled": False},
@@ -59,12 +55,13 @@ VARIANT_TRAIN: dict[str, dict[str, Any]] = {
     "recovery": {"init_std": 0.5, "max_std": 0.6, "save_interval": 25,
                  "ppo.mixed_precision": False},
     "recovery_rises": {"init_std": 0.5, "max_std": 0.6, "save_interval": 25,
-                       "teacher.learning_rate": 1e-4, "teacher.anneal_iterations": 300},
+                       "milestone_interval": 500, "stages": StageConfig()},
 }
 """Variant name → TrainConfig settings other than the defaults (``ppo.<field>`` for PPO,
-``teacher.<field>`` for the teacher);
+``teacher.<field>`` for the teacher, ``stages`` for a staged recipe whose last stage adds
+its own recorded rises and the teacher, :mod:`~hybrid_recovery.training.stages`);
 absent: the defaults. ``recovery`` keeps the float32 update its iterations were trained
-with."""
+with; ``recovery_rises`` takes the faster precision of the machine."""
 
 
 def variant_overrides(name: str) -> dict[str, Any]:

@@ -11,6 +11,7 @@ the robot's own stack uses; bridge or match versions on hardware.
 
 from __future__ import annotations
 
+import socket
 import threading
 import time
 from dataclasses import dataclass
@@ -55,8 +56,28 @@ def cyclonedds_config(interface: str = "lo") -> str:
     )
 
 
+def check_interface(interface: str) -> None:
+    """Refuses a network interface this machine does not have, before cyclonedds logs
+    its own complaint and fails with a bare ``DDSException``.
+
+    Raises:
+        ValueError: ``unknown network interface 'eth9' for DDS: this machine has ['lo',
+            'eth0']``.
+    """
+    names = [name for _, name in socket.if_nameindex()]
+    if interface not in names:
+        raise ValueError(f"unknown network interface {interface!r} for DDS: this machine "
+                         f"has {names}")
+
+
 def _domain(domain_id: int, interface: str) -> None:
-    """Create the process-wide cyclonedds Domain for ``domain_id`` once, on ``interface``."""
+    """Create the process-wide cyclonedds Domain for ``domain_id`` once, on ``interface``.
+
+    Raises:
+        ValueError: the domain is bound to another interface in this process, the
+            interface does not exist, or cyclonedds cannot open the domain on it (the
+            message names the domain and the interface).
+    """
     dds = _cyclonedds()
     with _DOMAINS_LOCK:
         if domain_id in _DOMAINS:
@@ -67,10 +88,13 @@ def _domain(domain_id: int, interface: str) -> None:
                     f"in this process, not {interface!r}"
                 )
             return
-        _DOMAINS[domain_id] = (
-            interface,
-            dds.domain.Domain(domain_id, cyclonedds_config(interface)),
-        )
+        check_interface(interface)
+        try:
+            domain = dds.domain.Domain(domain_id, cyclonedds_config(interface))
+        except dds.core.DDSException as err:
+            raise ValueError(f"cannot open DDS domain {domain_id} on network interface "
+                             f"{interface!r}: {err}") from err
+        _DOMAINS[domain_id] = (interface, domain)
 
 
 @dataclass(frozen=True)
