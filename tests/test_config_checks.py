@@ -217,3 +217,22 @@ def test_a_recording_of_wrong_types_is_named(tmp_path, replace, message):
     with pytest.raises(ValueError) as info:
         load_rises(path, 4, NQ, NV)
     assert str(info.value) == f"rise recording {path}: {message}"
+
+
+def test_one_entry_of_a_dict_field_is_set_by_its_dotted_key():
+    """``--set pose_weights.sitting=2`` (training/README.md) sets one pose's weight."""
+    from hybrid_recovery.envs import apply_overrides, default_config
+
+    cfg = default_config()
+    others = {k: v for k, v in cfg.pose_weights.items() if k != "sitting"}
+    apply_overrides(cfg, {"pose_weights.sitting": 2})
+    assert cfg.pose_weights == {**others, "sitting": 2.0}
+    with pytest.raises(ValueError) as err:
+        apply_overrides(cfg, {"pose_weights.sitting": -1})
+    assert str(err.value) == "config key 'pose_weights.sitting' must be >= 0, got -1"
+    with pytest.raises(KeyError) as missing:
+        apply_overrides(cfg, {"pose_weights.flying": 1})
+    assert missing.value.args[0] == (
+        "unknown config key 'pose_weights.flying': 'flying' is not one of ['half_kneeling', "
+        "'kneeling', 'prone', 'sitting', 'squatting', 'standing', 'supine']")
+    assert cfg.pose_weights["sitting"] == 2.0  # a refused entry changes nothing

@@ -203,3 +203,17 @@ def test_getup_outputs_are_kept_without_force(args, tmp_path, capsys):
     assert capsys.readouterr().err == (f"error: {kept} already exists; pass --force to "
                                        "overwrite it\n")
     assert kept.read_text() == "earlier results"
+
+
+def test_record_names_an_output_it_cannot_write_before_any_trial(tmp_path, capsys,
+                                                                monkeypatch):
+    from hybrid_recovery.cli.main import main
+    from hybrid_recovery.evaluation import getup_record
+
+    monkeypatch.setattr(getup_record, "run_trial", lambda *a, **k: pytest.fail("a trial ran"))
+    blocker = tmp_path / "a_file"
+    blocker.write_text("")
+    out = blocker / "x.npz"
+    assert main(["getup", "record", "--pose", "sitting", "--episodes", "1", "--policy",
+                 "shipped", "--out", str(out)]) == 2
+    assert capsys.readouterr().err == f"error: cannot write {out}: {blocker} is not a directory\n"

@@ -187,3 +187,27 @@ def test_a_checkpoint_of_other_networks_is_refused_in_one_line(tmp_path):
     text = str(info.value)
     assert text.startswith(f"checkpoint {run / 'latest.pt'} (variant 'full') does not fit "
                            "this model's actor: ") and "\n" not in text
+
+
+def test_num_envs_beyond_the_machines_memory_is_refused_before_any_allocation(tmp_path,
+                                                                             capsys):
+    import re
+
+    from hybrid_recovery.sim.scene import build_scene
+    from hybrid_recovery.training.memory import NotEnoughMemory, bytes_per_env, check_num_envs
+
+    model = build_scene()[0]
+    simulation, rollout = bytes_per_env(model, 24)
+    # the data buffer and the touched arena; 24 transitions of ~250 float32, three copies
+    assert 0.3e6 < simulation < 1e6 and 50e3 < rollout < 150e3
+    check_num_envs(1024, model, 24, available=10**9)  # 0.6 GB of 1 GB: fits
+    with pytest.raises(NotEnoughMemory) as err:
+        check_num_envs(2048, model, 24, available=10**9)
+    assert re.fullmatch(r"--num-envs 2048 needs about 1\.\d GB of memory \(\d+\.\d kB per "
+                        r"environment: the simulation \d+\.\d kB, the rollout \d+\.\d kB\); "
+                        r"1\.0 GB is available", str(err.value))
+    run = tmp_path / "huge"
+    assert main(["train", "--run-dir", str(run), "--num-envs", "50000000"]) == 2
+    assert re.fullmatch(r"error: --num-envs 50000000 needs about \d+\.\d TB of memory .*\n",
+                        capsys.readouterr().err)
+    assert not run.exists()

@@ -390,12 +390,30 @@ def apply_overrides(cfg: Any, overrides: dict[str, Any]) -> Any:
     for dotted, value in overrides.items():
         target = cfg
         *path, last = dotted.split(".")
+        if len(path) == 1 and isinstance(getattr(cfg, path[0], None), dict):
+            _set_entry(cfg, path[0], last, value, dotted)
+            continue
         for part in path:
             target = _field(target, part, dotted)
         _field(target, last, dotted)
         hint = typing.get_type_hints(type(target))[last]
         setattr(target, last, checked_value(dotted, value, hint))
     return cfg
+
+
+def _set_entry(cfg: EnvConfig, name: str, entry: str, value: Any, dotted: str) -> None:
+    """Sets entry ``entry`` of the dict-valued field ``name`` (``pose_weights.sitting``),
+    checked as the field's values are; the entry must be one the field holds."""
+    table = dict(getattr(cfg, name))
+    if entry not in table:
+        raise KeyError(f"unknown config key '{dotted}': '{entry}' is not one of {sorted(table)}")
+    hint = typing.get_type_hints(EnvConfig)[name]
+    try:
+        table[entry] = checked_value(name, {entry: value}, hint)[entry]
+    except ValueError as err:
+        raise ValueError(str(err).replace(f"config key '{name}'", f"config key '{dotted}'", 1)
+                         .replace(repr({entry: value}), repr(value))) from None
+    setattr(cfg, name, table)
 
 
 def _field(obj: Any, name: str, dotted: str) -> Any:

@@ -116,6 +116,7 @@ def record_rises(pose: str, episodes: int, out: str | Path, *, policy: str | Pat
         ValueError: an unknown pose, ``episodes`` < 1, ``duration`` ≤ 0, or a policy
             that cannot be loaded.
         FileExistsError: ``out`` exists and ``force`` is not set (before any trial).
+        OSError: ``cannot write <out>: <why>``, before any trial.
         NoRiseKept: no trial rose; nothing is written.
     """
     check_pose(pose)
@@ -125,6 +126,14 @@ def record_rises(pose: str, episodes: int, out: str | Path, *, policy: str | Pat
         raise ValueError(f"duration must be a finite number > 0, got {duration}")
     out = npz_path(out)
     refuse_existing(out, force, "a recording")
+    try:  # before any trial: a place that cannot be written is found now
+        out.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=out.parent, prefix=f".{out.stem}."):
+            pass
+    except FileExistsError:
+        raise OSError(f"cannot write {out}: {out.parent} is not a directory") from None
+    except OSError as err:
+        raise OSError(f"cannot write {out}: {err.strerror or err}") from None
     with recording_policy(policy) as path:
         spec = controller if ":" in controller or controller != "hybrid" else f"hybrid:{path}"
         return _record(pose, episodes, out, duration, seed, make_controller(spec))

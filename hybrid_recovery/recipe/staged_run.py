@@ -174,15 +174,15 @@ def _stages(run_dir: Path, cfg: TrainConfig, stages: StageConfig, resume: bool,
             state = state or StageState()
             hook = _probe_hook(run_dir, stages, state, recorder)
         try:
-            runner = train(run_dir, cfg, resume=resume, amend=amend, force=force, given=given,
-                           after_iteration=hook)
+            train(run_dir, cfg, resume=resume, amend=amend, force=force, given=given,
+                  after_iteration=hook)
         except StageEnded:
             resume, amend, force = True, None, False
             continue
         done = StageState.load(run_dir)
         assert done is not None
-        _log(f"stage {done.stage}: the run's last iteration, "
-             f"{runner.current_learning_iteration - 1}, reached")
+        last = int(load_latest(run_dir)[0]["iter"])
+        _log(f"stage {done.stage}: the run's target reached, its last iteration {last}")
         return done
 
 

@@ -20,6 +20,7 @@ from hybrid_recovery.files import exclusive_lock
 from hybrid_recovery.observation import ACTOR_OBS_DIM, ACTOR_TERMS
 from hybrid_recovery.robot.constants import JOINT_NAMES
 from hybrid_recovery.sim.backend import check_backend
+from hybrid_recovery.sim.scene import build_scene
 from hybrid_recovery.training.checkpoint import (
     LATEST,
     RUN_CONFIG,
@@ -39,6 +40,7 @@ from hybrid_recovery.training.config import (
 )
 from hybrid_recovery.training.distributed import Rank, join_cpu_group, process_rank
 from hybrid_recovery.training.graceful_stop import StopRequest, TrainingStopped, stop_on_signals
+from hybrid_recovery.training.memory import check_num_envs
 from hybrid_recovery.training.precision import PrecisionChoice, choose_precision, fixed_precision
 from hybrid_recovery.training.record import hardware
 from hybrid_recovery.training.stages import RISES_DIR, STATE_FILE, StageState, stage_config
@@ -289,6 +291,8 @@ def train(run_dir: str | Path, cfg: TrainConfig, resume: bool = False,
         FileExistsError: a new run (no ``resume``, no ``force``) in a directory that
             holds one; nothing is touched.
         FileLockedError: another process trains in ``run_dir``.
+        NotEnoughMemory: ``cfg.num_envs`` environments would not fit in the available
+            memory (:func:`~.memory.check_num_envs`).
         FileNotFoundError: resuming a directory without a checkpoint.
         ValueError: ``amend`` without ``resume``, ``resume`` with ``force``, no intact
             checkpoint, a damaged ``config.json`` (named), or a bad setting.
@@ -343,6 +347,8 @@ def _train(run_dir: Path, cfg: TrainConfig, resume: bool, amend: dict | None, fo
                              f"trained (hybrid-recovery train --resume records them)")
         cfg = stage_config(cfg, stage_state.stage, run_dir, cfg.stages)
     env_cfg = make_env_config(cfg)  # every setting checked before a file is written
+    check_num_envs(cfg.num_envs, build_scene(env_cfg.model_path, env_cfg.physics_dt)[0],
+                   cfg.num_steps_per_env)
     torch.manual_seed(rank.seed(cfg.seed))
     torch.set_num_threads(cfg.torch_threads or cfg.num_threads)
     env = RecoveryEnv(dataclasses.replace(env_cfg, seed=rank.seed(cfg.seed)),
