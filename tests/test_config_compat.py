@@ -1,6 +1,6 @@
 """Old configs still load: removed options at their neutral values are dropped, others are
-refused; the live checkpoint's run and the shipped policy's record load; the shipped recipe
-is the named variant ``recovery_rises``."""
+refused; the live checkpoint's run and the shipped policy's record load; the shipped
+policy's final settings are the last stage of the named variant ``recovery_rises``."""
 
 from __future__ import annotations
 
@@ -20,11 +20,11 @@ from hybrid_recovery.policy import SHIPPED_POLICY
 from hybrid_recovery.training.checkpoint import load_checkpoint
 from hybrid_recovery.training.config import amend_train_config, train_config_from_dict
 from hybrid_recovery.training.runner import _resumed_config, make_env_config
-from hybrid_recovery.training.stages import stage_config
+from hybrid_recovery.training.stages import StageState, stage_config
 from hybrid_recovery.training.variants import VARIANTS, variant_train_config
 
 ROOT = Path(__file__).resolve().parents[1]
-LIVE_RUN = ROOT / "training" / "checkpoints" / "recovery_rises"
+LIVE_RUN = ROOT / "training" / "checkpoints" / "recovery_rises_s0"
 RECORD = SHIPPED_POLICY / "training_record.json"
 
 
@@ -76,12 +76,18 @@ def test_the_shipped_record_loads():
 
 
 def test_the_live_checkpoints_run_resumes_with_its_saved_settings():
+    """The live run is the recipe from nothing: a staged run whose saved settings, stage
+    and curriculum states resume as they were."""
     if not (LIVE_RUN / "config.json").is_file():
         pytest.skip("no live checkpoint in this tree")
     saved = json.loads((LIVE_RUN / "config.json").read_text())
-    resumed = _resumed_config(LIVE_RUN, variant_train_config("full", iterations=50_000))
+    resumed = _resumed_config(LIVE_RUN, variant_train_config("full"), given=set())
     assert resumed == train_config_from_dict(saved["train_config"])
-    env_cfg = make_env_config(resumed)
+    assert resumed.variant == "recovery_rises" and resumed.stages is not None
+    assert saved["amendments"] == []  # from scratch: no amendment
+    state = StageState.load(LIVE_RUN)
+    assert state is not None and state.stage == saved["stage"]
+    env_cfg = make_env_config(stage_config(resumed, state.stage, LIVE_RUN, resumed.stages))
     assert _plain(env_cfg) == _plain(env_config_from_dict(saved["env_config"]))
     # the checkpoint's curriculum, assistance and bridge states load into the run's own
     infos = load_checkpoint(LIVE_RUN / "latest.pt")["infos"]
@@ -90,14 +96,12 @@ def test_the_live_checkpoints_run_resumes_with_its_saved_settings():
     curriculum.load_state_dict(infos["curriculum"])
     assist.load_state_dict(infos["assist"])
     bridge.load_state_dict(infos["bridge"])
-    assert (curriculum.stage, curriculum.level) == (3, 1.0)
+    assert (curriculum.stage, curriculum.level) == (infos["curriculum"]["stage"],
+                                                    infos["curriculum"]["level"])
     assert assist.fraction == infos["assist"]["fraction"]
-    for pose, level in infos["bridge"]["level"].items():  # none where rises replace them
+    for pose, level in infos["bridge"]["level"].items():
         assert bridge.level[pose] == level
         assert len(bridge._outcomes[pose]) == len(infos["bridge"]["outcomes"][pose])
-    # the rise levels, of the run's K (their recordings are written by `getup record`)
-    assert infos["rises"]["levels"] == env_cfg.rises.levels == 16
-    assert set(infos["rises"]["level"]) == {"sitting", "supine"}
 
 
 def test_the_recipes_last_stage_is_the_shipped_recipe():

@@ -131,7 +131,8 @@ def test_levels_and_windows_round_trip_and_rescale(tmp_path):
 def test_bad_recordings_and_settings_are_refused_verbatim(tmp_path):
     qpos, qvel = numbered()
     good = write_recording(tmp_path / "good.npz", qpos, qvel)
-    how = "write one with `hybrid-recovery getup record --pose POSE --episodes N --out FILE`"
+    how = ("write one with `hybrid-recovery getup record --pose POSE --episodes N --policy P "
+           "--out FILE`")
     short = tmp_path / "short.npz"
     cases = [
         (tmp_path / "none.npz", f"rises.files: no such file: {tmp_path / 'none.npz'} ({how})"),
@@ -281,7 +282,7 @@ def test_a_run_with_rises_names_the_recordings_it_needs(tmp_path, monkeypatch):
         train(tmp_path / "run", cfg)
     assert str(err.value) == (
         "rises.files: no such file: rises/sitting.npz (write one with `hybrid-recovery getup "
-        "record --pose POSE --episodes N --out FILE`)")
+        "record --pose POSE --episodes N --policy P --out FILE`)")
     assert not (tmp_path / "run").exists()  # refused before a file is written
 
 

@@ -121,7 +121,7 @@ def test_a_recording_without_keyframes_is_refused_with_the_way_to_write_one(tmp_
     assert str(err.value) == (
         f"rise recording {tmp_path / 'old.npz'} has no ['goal'] (the moves' targets and "
         "keyframes); re-record it with `hybrid-recovery getup record --pose POSE --episodes "
-        "N --out FILE`, which writes them")
+        "N --policy P --out FILE`, which writes them")
     with pytest.raises(ValueError, match="the teacher needs recorded rises: set rises.files"):
         teacher_samples([], model, 0.3)
 

@@ -34,7 +34,8 @@ SETTLE = "settle"
 POLICY = "policy"
 """Phase of its samples once the policy has taken over (the hand-over)."""
 _ARRAYS = ("qpos", "qvel", "time", "episode", "phase", "pose")
-_HOW = "write one with `hybrid-recovery getup record --pose POSE --episodes N --out FILE`"
+_HOW = ("write one with `hybrid-recovery getup record --pose POSE --episodes N --policy P "
+        "--out FILE`")
 
 
 @dataclass(frozen=True)

@@ -46,7 +46,7 @@ from hybrid_recovery.training.config import TeacherConfig
 from hybrid_recovery.training.split_update import SplitUpdatePPO
 
 _HOW = ("re-record it with `hybrid-recovery getup record --pose POSE --episodes N "
-        "--out FILE`, which writes them")
+        "--policy P --out FILE`, which writes them")
 
 
 def teacher_samples(paths: Sequence[str | Path], model: mujoco.MjModel, action_scale: float
