@@ -77,6 +77,14 @@ def test_a_tiny_run_passes_every_stage_in_order_with_its_own_policy(tmp_path, po
     assert load_checkpoint(run / "latest.pt")["infos"]["teacher"] is not None
     # every policy that ran was exported from this run, none is the shipped one
     assert policies_loaded and all(SHIPPED_DIR not in p.parents for p in policies_loaded)
+    # the exported record says so, with the stages up to the checkpoint
+    from hybrid_recovery.training.export import export_policy
+
+    record = json.loads((export_policy(run, tmp_path / "export") /
+                         "training_record.json").read_text())
+    assert record["origin"] == "from scratch" and record["amendments"] == []
+    assert record["stages"]["stage"] == "rises"
+    assert [c["to"] for c in record["stages"]["changes"]] == ["record", "rises"]
 
 
 def test_a_kill_in_each_stage_resumes_in_that_stage(tmp_path, policies_loaded, monkeypatch):

@@ -14,6 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
+from hybrid_recovery.training.stages import STAGES, StageState
+
 CURVES: tuple[tuple[str, str], ...] = (
     ("Train/mean_reward", "mean episode reward"),
     ("episode/final_com_height", "CoM height at episode end [m]"),
@@ -123,7 +125,9 @@ def hardware() -> dict:
 
 def training_record(run_dir: str | Path, checkpoint: dict,
                     history: Sequence[str | Path] = ()) -> dict:
-    """The record of the run that produced ``checkpoint`` (a loaded checkpoint dict).
+    """The record of the run that produced ``checkpoint`` (a loaded checkpoint dict):
+    its settings, compute, curves' final values, ``origin`` (``from scratch``: no fork,
+    no amendment) and, for a staged run, its stages up to the checkpoint.
 
     ``history``: the runs ``run_dir`` was forked from, oldest first (:func:`read_lineage`).
     """
@@ -160,8 +164,24 @@ def training_record(run_dir: str | Path, checkpoint: dict,
         "curriculum": _without_outcomes(checkpoint["infos"].get("curriculum")),
         "assist": _without_outcomes(checkpoint["infos"].get("assist")),
         FINAL_KEY: final,
+        "origin": "from scratch" if not history and not meta.get("amendments") else
+                  "a fork or an amended run",
         **({"lineage": ranges} if history else {}),
+        **_stages_upto(run_dir, iteration),
     }
+
+
+def _stages_upto(run_dir: str | Path, iteration: int) -> dict:
+    """A staged run's stage changes, probes and recordings up to ``iteration`` (its
+    ``stages.json`` may already be further): ``{"stages": {...}}``, or nothing."""
+    state = StageState.load(run_dir)
+    if state is None:
+        return {}
+    changes = [c for c in state.changes if c["iteration"] <= iteration]
+    return {"stages": {
+        "stage": changes[-1]["to"] if changes else STAGES[0], "changes": changes,
+        "probes": [p for p in state.probes if p["iteration"] <= iteration],
+        "recordings": [r for r in state.recordings if r["iteration"] <= iteration]}}
 
 
 def _without_outcomes(state: dict | None) -> dict | None:
