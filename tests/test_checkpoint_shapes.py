@@ -16,7 +16,7 @@ from hybrid_recovery.robot import constants
 from hybrid_recovery.training.checkpoint import check_state_shapes, load_checkpoint
 
 CHECKPOINT = Path(__file__).resolve().parents[1] / "training" / "checkpoints" / \
-    "recovery_rises" / "latest.pt"
+    "recovery_rises_s0" / "latest.pt"
 
 
 def _actor(hidden_dims: list[int]) -> MLPModel:
@@ -38,7 +38,7 @@ def test_a_checkpoint_of_other_widths_is_named_in_one_line():
     with pytest.raises(ValueError) as info:
         check_state_shapes(saved, narrow, "actor", CHECKPOINT, variant)
     assert str(info.value) == (
-        f"checkpoint {CHECKPOINT} (variant 'full') does not fit this model's actor: "
+        f"checkpoint {CHECKPOINT} (variant '{variant}') does not fit this model's actor: "
         "mlp.0.bias is [512] there, [256] here (7 tensors differ)")
     with pytest.raises(RuntimeError, match="size mismatch"):  # what it spares the user
         _actor([256, 128, 64]).load_state_dict(saved)
