@@ -54,7 +54,10 @@ class NoRiseKept(RuntimeError):
 
 
 def _is_run_dir(path: Path) -> bool:
-    return path.is_dir() and ((path / "latest.pt").is_file() or any(path.glob("model_*.pt")))
+    """Whether ``path`` holds a training run's checkpoint (``latest.pt`` or a numbered one)."""
+    from hybrid_recovery.training.checkpoint import LATEST, numbered_checkpoints
+
+    return path.is_dir() and ((path / LATEST).is_file() or bool(numbered_checkpoints(path)))
 
 
 @contextmanager
