@@ -38,8 +38,8 @@ def test_compare_checks_every_controller_before_any_runs(tmp_path, capsys):
     out = tmp_path / "out"
     err = _error(capsys, ["compare", "--controllers", "zero", "bogus", "--trials", "1",
                           "--out", str(out)])
-    assert err == ("error: unknown controller 'bogus': use zero, learned, onnx:PATH, qp, "
-                   "model or hybrid[:PATH]\n")
+    assert err == ("error: unknown controller 'bogus': known controllers are hybrid, learned, "
+                   "model, onnx, qp, zero\n")
     assert not out.exists()
 
 
@@ -85,8 +85,8 @@ def test_debug_adds_the_traceback(capsys):
     assert main(["--debug", "eval", "--controller", "bogus"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("Traceback (most recent call last):")
-    assert err.endswith("error: unknown controller 'bogus': use zero, learned, onnx:PATH, qp, "
-                        "model or hybrid[:PATH]\n")
+    assert err.endswith("error: unknown controller 'bogus': known controllers are hybrid, "
+                        "learned, model, onnx, qp, zero\n")
     assert main(["eval", "--debug", "--controller", "bogus"]) == 2  # after the subcommand too
     assert capsys.readouterr().err.startswith("Traceback")
 

@@ -19,10 +19,10 @@ from hybrid_recovery.envs import config as env_config
 from hybrid_recovery.envs.config_values import INFINITE, RANGES
 from hybrid_recovery.envs.rise_starts import load_rises
 from hybrid_recovery.getup.contact_qp import ContactQpConfig
-from hybrid_recovery.getup.controllers import GetupConfig
 from hybrid_recovery.getup.feasibility import FeasibilityConfig
 from hybrid_recovery.getup.move_executor import MoveConfig
 from hybrid_recovery.getup.push_up import PushUpConfig
+from hybrid_recovery.getup.relapse import GetupConfig
 
 CONFIGS = [FeasibilityConfig, ContactQpConfig, PushUpConfig, MoveConfig, GetupConfig,
            control_config.QpConfig, control_config.DcmConfig, control_config.SteppingConfig,

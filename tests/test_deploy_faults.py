@@ -72,7 +72,7 @@ def policy(tmp_path_factory):
 def _run(monkeypatch, policy, link: FakeLink) -> None:
     monkeypatch.setattr(bridge, "FastLink", lambda *args: link)
     safety = SafetyConfig(SafetyLimits.from_robot(), skip_startup=True, overrun_s=1.0)
-    run_controller(policy, seconds=1.0, safety=safety, damping_s=0.1)
+    run_controller(f"onnx:{policy}", seconds=1.0, safety=safety, damping_s=0.1)
 
 
 def _check_damped_after_stiff(link: FakeLink, damping_kd: np.ndarray) -> None:

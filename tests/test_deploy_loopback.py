@@ -98,4 +98,4 @@ def test_no_robot_gives_a_clear_timeout(tmp_path):
     domain = random.SystemRandom().randint(1, 200)
     with pytest.raises(TimeoutError, match=rf"^no LowState_ on rt/lowstate within 0.3 s "
                                            rf"\(domain {domain}, interface lo\)"):
-        run_controller(policy, domain, "lo", seconds=1.0, wait_timeout_s=0.3)
+        run_controller(f"onnx:{policy}", domain, "lo", seconds=1.0, wait_timeout_s=0.3)

@@ -98,7 +98,7 @@ def test_startup_sequence_on_the_gantry_then_standing(zero_policy):
 def test_sim2sim_writes_a_consistent_balance_trace(zero_policy, tmp_path):
     cfg = Sim2SimConfig(pose="standing", seconds=1.0, push_force=100.0, push_time=0.5,
                         push_duration=0.1, video=False)
-    summary = run_sim2sim(zero_policy, tmp_path, cfg)
+    summary = run_sim2sim(f"onnx:{zero_policy}", tmp_path, cfg)
     assert summary["fault"] is None and summary["final_phase"] == "policy"
     assert json.loads((tmp_path / "summary.json").read_text())["fault"] is None
     assert (tmp_path / "trace.png").stat().st_size > 10_000

@@ -8,7 +8,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from hybrid_recovery.evaluation.controllers import make_controller
+from hybrid_recovery.controllers import make
 from hybrid_recovery.evaluation.scenario import Scenario
 from hybrid_recovery.evaluation.trial import run_trial, start_state
 from hybrid_recovery.policy import is_shipped
@@ -78,7 +78,7 @@ def test_a_batch_clock_that_did_not_advance_marks_the_reset_simulations():
     (1e6, "speed ", " at t = 1.020 s"),
 ])
 def test_a_huge_push_ends_the_trial_diverged_never_a_success(force, why, when):
-    row = run_trial(make_controller("zero"), Scenario("standing", force, duration=4.0,
+    row = run_trial(make("zero"), Scenario("standing", force, duration=4.0,
                                                       noise=0.25))
     assert row["success"] is False and row["recovery_time"] is None
     assert row["standing_at_end"] is False and row["stuck_low"] is False
@@ -91,7 +91,7 @@ def test_a_non_finite_start_ends_the_trial_diverged_before_any_step():
     scenario = Scenario("standing", duration=3.0, noise=0.25)
     start = start_state(scenario, None, "default")
     start[10] = np.nan
-    row = run_trial(make_controller("zero"), scenario, start_qpos=start)
+    row = run_trial(make("zero"), scenario, start_qpos=start)
     assert row["success"] is False and row["standing_at_end"] is False
     assert row["diverged"] is True and row["divergence"] == "non-finite state at the start"
 
@@ -110,7 +110,7 @@ def test_a_scenario_a_trial_cannot_run_on_is_refused(field, value, message):
 
 
 def test_a_trial_shorter_than_a_step_is_measured_not_an_index_error():
-    row = run_trial(make_controller("zero"), Scenario("standing", duration=1e-9, noise=0.25))
+    row = run_trial(make("zero"), Scenario("standing", duration=1e-9, noise=0.25))
     assert row["success"] is False and row["diverged"] is False
 
 
@@ -198,13 +198,14 @@ def test_a_sim2sim_run_stops_where_it_diverged_and_is_not_upright(tmp_path):
 
     policy = write_stand_in_policy(tmp_path / "policy", "zero")
     cfg = Sim2SimConfig(seconds=2.0, push_force=1e12, push_time=0.5, video=False)
-    summary = run_sim2sim(policy, tmp_path / "out", cfg)
+    summary = run_sim2sim(f"onnx:{policy}", tmp_path / "out", cfg)
     assert summary["upright_at_end"] is False and summary["diverged"] is True
     assert summary["divergence"] == ("MuJoCo: non-finite or huge acceleration "
                                      "(mjWARN_BADQACC) at DOF 0 at t = 0.501 s")
     start = np.full(cfg_nq(), np.nan)
     with pytest.raises(SimulationDiverged) as err:
-        run_sim2sim(policy, tmp_path / "nan", Sim2SimConfig(start_qpos=start, video=False))
+        run_sim2sim(f"onnx:{policy}", tmp_path / "nan",
+                    Sim2SimConfig(start_qpos=start, video=False))
     assert str(err.value) == "the start state has diverged (non-finite state)"
     assert not (tmp_path / "nan").exists()
 

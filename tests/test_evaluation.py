@@ -219,11 +219,11 @@ def test_a_results_file_is_resumed_only_by_the_run_that_wrote_it(tmp_path):
 
 
 def test_capture_point_figure_from_a_recorded_push(tmp_path):
-    from hybrid_recovery.evaluation.controllers import make_controller
+    from hybrid_recovery.controllers import make
     from hybrid_recovery.evaluation.report import capture_point_figure
     from hybrid_recovery.evaluation.trial import run_trial
 
-    row = run_trial(make_controller("zero"), Scenario("standing", 150.0, duration=2.0,
+    row = run_trial(make("zero"), Scenario("standing", 150.0, duration=2.0,
                                                       noise=0.0), record=True)
     trace = row["trace"]
     assert trace["cp"].shape == (100, 2) and np.isfinite(trace["feet_xy"]).any()
@@ -232,13 +232,13 @@ def test_capture_point_figure_from_a_recorded_push(tmp_path):
 
 
 def test_bad_controller_and_pose_are_refused():
-    from hybrid_recovery.evaluation.controllers import make_controller
+    from hybrid_recovery.controllers import make
     from hybrid_recovery.evaluation.trial import run_trial
 
     with pytest.raises(ValueError, match="unknown controller 'nope'"):
-        make_controller("nope")
+        make("nope")
     with pytest.raises(ValueError, match="unknown pose 'flying'"):
-        run_trial(make_controller("zero"), Scenario("flying", duration=0.1))
+        run_trial(make("zero"), Scenario("flying", duration=0.1))
 
 
 def test_demo_runs_and_writes_a_report(tmp_path):

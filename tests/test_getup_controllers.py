@@ -9,14 +9,14 @@ import numpy as np
 import pytest
 from conftest import REFERENCE_MJCF
 
+import hybrid_recovery.controllers.hybrid as hybrid_module
+import hybrid_recovery.controllers.model as model_module
 from hybrid_recovery.control.supervisor import POLICY
-from hybrid_recovery.evaluation import getup_controllers
-from hybrid_recovery.evaluation.controllers import make_controller
-from hybrid_recovery.evaluation.getup_controllers import GroundHybridController
+from hybrid_recovery.controllers import HybridController, ModelController, make
 from hybrid_recovery.evaluation.scenario import Scenario
 from hybrid_recovery.evaluation.trial import eval_model, run_trial, start_state
 from hybrid_recovery.getup.contact_map import maps_contacts
-from hybrid_recovery.getup.controllers import GetupConfig, com_height, lying_still
+from hybrid_recovery.getup.relapse import GetupConfig, com_height, lying_still
 from hybrid_recovery.policy import SHIPPED, is_shipped, resolve_policy
 from hybrid_recovery.robot import constants
 from hybrid_recovery.sim.initial_states import seat_single
@@ -26,7 +26,7 @@ def test_model_controller_moves_to_knee_chest_pushes_up_and_holds_hands_and_knee
     from hybrid_recovery.getup.push_up import on_hands_and_knees
 
     seen: list[tuple[float, bool]] = []
-    row = run_trial(make_controller("model"), Scenario("prone", duration=15.0, seed=0),
+    row = run_trial(make("model"), Scenario("prone", duration=15.0, seed=0),
                     on_sample=lambda model, data, _: seen.append(
                         (float(data.time), on_hands_and_knees(model, data)[0])))
     info = row["controller_info"]
@@ -51,7 +51,7 @@ def test_model_controller_reaches_hands_and_knees_on_the_manufacturer_meshes():
     meshes and hands with the wrist meshes (read as the named contacts where they touch)."""
     if not REFERENCE_MJCF.is_file():
         pytest.skip(f"reference model not found at {REFERENCE_MJCF} (../shared absent)")
-    row = run_trial(make_controller("model"), Scenario("prone", duration=11.0, seed=0),
+    row = run_trial(make("model"), Scenario("prone", duration=11.0, seed=0),
                     str(REFERENCE_MJCF), rotor_inertia=True)
     info = row["controller_info"]
     assert [m for _, _, m in info["moves"]] == ["tuck from prone", "in knee_chest"]
@@ -63,10 +63,8 @@ def test_model_controller_reaches_hands_and_knees_on_the_manufacturer_meshes():
 def test_model_controller_re_plans_after_a_push_up_that_misses(monkeypatch):
     """A push-up that does not end on hands and knees hands the robot back to the moves,
     and after ``max_push_ups`` the moves hold it."""
-    import hybrid_recovery.getup.controllers as controllers
-
-    monkeypatch.setattr(controllers, "on_hands_and_knees", lambda model, data: (False, ""))
-    row = run_trial(controllers.ModelController(max_push_ups=1),
+    monkeypatch.setattr(model_module, "on_hands_and_knees", lambda model, data: (False, ""))
+    row = run_trial(ModelController(max_push_ups=1),
                     Scenario("prone", duration=12.0, seed=0))
     info = row["controller_info"]
     assert [p["hands_and_knees"] for p in info["push_ups"]] == [False]
@@ -75,17 +73,17 @@ def test_model_controller_re_plans_after_a_push_up_that_misses(monkeypatch):
 
 
 def test_model_controller_balances_with_the_qp_when_standing():
-    row = run_trial(make_controller("model"), Scenario("standing", duration=3.0, seed=0,
+    row = run_trial(make("model"), Scenario("standing", duration=3.0, seed=0,
                                                        noise=0.25))
     assert row["success"] and row["controller_info"]["final_mode"] == "qp"
-    stopped = run_trial(make_controller("model"), Scenario("standing", duration=3.0, seed=0,
+    stopped = run_trial(make("model"), Scenario("standing", duration=3.0, seed=0,
                                                            noise=0.25), stop_on_success=True)
     assert stopped["recovery_time"] == row["recovery_time"]
 
 
 @pytest.mark.skipif(not is_shipped(), reason="no shipped policy")
 def test_hybrid_with_the_moves_first_rises_from_prone_through_knee_chest():
-    controller = GroundHybridController(resolve_policy(SHIPPED),
+    controller = HybridController(resolve_policy(SHIPPED),
                                         GetupConfig(policy_first=False))
     row = run_trial(controller, Scenario("prone", duration=20.0, seed=1), stop_on_success=True)
     info = row["controller_info"]
@@ -151,7 +149,7 @@ def test_the_policy_acts_first_on_the_ground_and_the_moves_come_when_it_lies_sti
     """From prone the policy acts first; lying still for ``relapse_time`` starts the moves
     (to knee-chest); lying still in knee-chest, a state no move starts from, starts them
     again (they arrive at once and hand over a second time)."""
-    controller = make_controller("hybrid")
+    controller = make("hybrid")
     controller.supervised = stand_in = _GaveUp()
     config = controller.config
     model = eval_model(None, controller.physics_dt, False, "default")
@@ -188,8 +186,8 @@ def test_the_policy_acts_first_on_the_ground_and_the_moves_come_when_it_lies_sti
 def test_the_hybrid_rises_from_sitting_with_the_policy_alone_as_fast_as_the_policy():
     """Where the policy rises, the hybrid is the policy: the same recovery, no moves."""
     scenario = Scenario("sitting", duration=12.0, seed=3)
-    hybrid = run_trial(make_controller("hybrid"), scenario, stop_on_success=True)
-    learned = run_trial(make_controller("learned"), scenario, stop_on_success=True)
+    hybrid = run_trial(make("hybrid"), scenario, stop_on_success=True)
+    learned = run_trial(make("learned"), scenario, stop_on_success=True)
     assert learned["success"] and hybrid["success"], hybrid["controller_info"]
     info = hybrid["controller_info"]
     assert info["handovers"] == [] and info["moves"] == [] and info["relapses"] == 0
@@ -203,12 +201,12 @@ def test_a_pause_of_the_rising_policy_is_not_taken_for_a_relapse(monkeypatch):
     instead of starting them, as the policy alone does."""
     if not REFERENCE_MJCF.is_file():
         pytest.skip(f"reference model not found at {REFERENCE_MJCF} (../shared absent)")
-    monkeypatch.setattr(getup_controllers, "maps_contacts", lambda model: True)
+    monkeypatch.setattr(hybrid_module, "maps_contacts", lambda model: True)
     scenario = Scenario("sitting", force=100.0, direction=np.pi, height=0.0, duration=12.0,
                         seed=1020123520, noise=0.25)
     kwargs = dict(model_path=REFERENCE_MJCF, rotor_inertia=True, stop_on_success=True)
-    learned = run_trial(make_controller("learned"), scenario, **kwargs)
-    hybrid = run_trial(make_controller("hybrid"), scenario, **kwargs)
+    learned = run_trial(make("learned"), scenario, **kwargs)
+    hybrid = run_trial(make("hybrid"), scenario, **kwargs)
     assert learned["success"] and learned["recovery_time"] > 4.0
     assert hybrid["success"], hybrid["controller_info"]
     assert hybrid["controller_info"]["moves"] == []
@@ -222,7 +220,7 @@ def test_the_moves_run_only_on_a_model_with_the_named_contacts():
     assert maps_contacts(eval_model(None, 0.005, False, "default"))
     if not REFERENCE_MJCF.is_file():
         pytest.skip(f"reference model not found at {REFERENCE_MJCF} (../shared absent)")
-    controller = GroundHybridController(resolve_policy(SHIPPED), GetupConfig(policy_first=False))
+    controller = HybridController(resolve_policy(SHIPPED), GetupConfig(policy_first=False))
     model = eval_model(str(REFERENCE_MJCF), controller.physics_dt, False, "default")
     assert not maps_contacts(model)
     controller.supervised = _GaveUp()

@@ -10,7 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from hybrid_recovery.evaluation.controllers import make_controller
+from hybrid_recovery.controllers import make
 from hybrid_recovery.evaluation.scenario import SWEEP_DIRECTIONS, Scenario
 from hybrid_recovery.evaluation.trial import run_trial
 from hybrid_recovery.policy import SHIPPED, resolve_policy
@@ -31,7 +31,7 @@ def test_hybrid_wins_every_push_the_policy_wins():
         resolve_policy(SHIPPED)
     except FileNotFoundError as err:
         pytest.skip(str(err))
-    learned, hybrid = make_controller("learned"), make_controller("hybrid")
+    learned, hybrid = make("learned"), make("hybrid")
     lost = []
     for force, direction, height in PUSHES:
         scenario = Scenario("standing", force, SWEEP_DIRECTIONS[direction], height,
@@ -50,7 +50,7 @@ def test_while_the_policy_acts_the_hybrid_is_the_policy():
         pytest.skip(str(err))
     scenario = Scenario("standing", 300.0, SWEEP_DIRECTIONS["front"], 0.0, duration=0.6,
                         push_time=0.2, seed=0, noise=0.25)
-    learned = run_trial(make_controller("learned"), scenario, record=True)
-    hybrid = run_trial(make_controller("hybrid"), scenario, record=True)
+    learned = run_trial(make("learned"), scenario, record=True)
+    hybrid = run_trial(make("hybrid"), scenario, record=True)
     assert [kind for _, kind, _ in hybrid["controller_info"]["switches"]] == ["to_policy"]
     np.testing.assert_allclose(hybrid["trace"]["com"], learned["trace"]["com"], atol=1e-9)

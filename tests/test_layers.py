@@ -1,9 +1,9 @@
 """Layers import downward only: every module's imports, parsed, against the layer order.
 
 files / checks → robot → dynamics → observation → sim → policy → control / envs →
-training / getup → evaluation / deploy → bench / demo / recipe → cli. A package may import
-its own modules and any package of a lower layer; packages of one layer do not import each
-other. Imports inside functions count too.
+training / getup → controllers → evaluation / deploy → bench / demo / recipe → cli. A
+package may import its own modules and any package of a lower layer; packages of one layer
+do not import each other. Imports inside functions count too.
 """
 
 from __future__ import annotations
@@ -24,6 +24,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("policy",),
     ("control", "envs"),
     ("training", "getup"),
+    ("controllers",),
     ("evaluation", "deploy"),
     ("bench", "demo", "recipe"),
     ("cli",),
@@ -33,9 +34,11 @@ LAYERS: tuple[tuple[str, ...], ...] = (
 FORBIDDEN: dict[str, tuple[str, ...]] = {
     "envs": ("policy",),
     "deploy": ("envs", "training"),
+    "controllers": ("training",),
 }
 """Lower packages a package still must not import: the environment knows nothing of the
-exported policy; the robot's runner loads neither the environment nor torch training."""
+exported policy; the robot's runner loads neither the environment nor torch training;
+the controllers know nothing of training (evaluation and deploy sit above them)."""
 
 LEVEL = {pkg: i for i, layer in enumerate(LAYERS) for pkg in layer}
 
@@ -112,3 +115,16 @@ def test_the_checker_sees_upward_relative_and_function_level_imports():
         "control imports evaluation, which is not below it"]
     assert violations("envs", {"control"}) == ["envs imports control, which is not below it"]
     assert violations("envs", {"policy"}) == ["envs must not import policy"]
+
+
+def test_the_controllers_import_nothing_of_evaluation_deploy_or_training():
+    imported = set()
+    for module, package, path in _modules():
+        if package == "controllers":
+            imported |= imported_packages(path.read_text(), module)
+    assert imported, "the controllers package was not found"
+    assert not imported & {"evaluation", "deploy", "training"}
+    assert violations("controllers", {"evaluation", "deploy", "training"}) == [
+        "controllers imports deploy, which is not below it",
+        "controllers imports evaluation, which is not below it",
+        "controllers must not import training"]

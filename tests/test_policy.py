@@ -101,13 +101,13 @@ def test_the_shipped_policy_is_complete_and_runs():
 
 def test_learned_controller_is_the_shipped_policy_and_says_when_there_is_none(monkeypatch,
                                                                                tmp_path):
-    from hybrid_recovery.evaluation.controllers import make_controller
+    from hybrid_recovery.controllers import make
     from hybrid_recovery.policy import SHIPPED_POLICY, shipped
 
-    assert make_controller("learned").policy.path == SHIPPED_POLICY / "policy.onnx"
+    assert make("learned").policy.path == SHIPPED_POLICY / "policy.onnx"
     monkeypatch.setattr(shipped, "SHIPPED_POLICY", tmp_path)
     with pytest.raises(ValueError, match="no policy is shipped"):
-        make_controller("learned")
+        make("learned")
     with pytest.raises(FileNotFoundError, match="no policy is shipped"):
         shipped.resolve_policy("shipped")
 
@@ -125,9 +125,9 @@ def test_controllers_clamp_targets_as_training_and_the_robot_do(export, kind):
     import mujoco
 
     from hybrid_recovery.control.policy_controller import PolicyController
+    from hybrid_recovery.controllers import OnnxPolicyController
     from hybrid_recovery.deploy.state_machine import SafetyConfig
     from hybrid_recovery.envs.config import CurriculumConfig
-    from hybrid_recovery.evaluation.controllers import OnnxPolicyController
     from hybrid_recovery.robot.limits import SafetyLimits
     from hybrid_recovery.robot.mjcf import load_mjmodel
 

@@ -9,8 +9,8 @@ import shutil
 
 import pytest
 
+from hybrid_recovery.controllers import make
 from hybrid_recovery.deploy.policy_runner import PolicyMismatchError, PolicyRunner
-from hybrid_recovery.evaluation.controllers import make_controller
 from hybrid_recovery.policy import OnnxPolicy, load_policy_description
 from hybrid_recovery.training.stand_in import write_stand_in_policy
 
@@ -80,7 +80,7 @@ def test_a_nan_action_scale_is_refused_by_eval_play_and_deploy(export, tmp_path)
     out, path = _with(export, tmp_path, _set("action.scale", math.nan))
     message = f"{path} field 'action.scale' must be a finite number > 0, got nan"
     with pytest.raises(ValueError) as info:
-        make_controller(f"onnx:{out}")  # eval and compare
+        make(f"onnx:{out}")  # eval and compare
     assert str(info.value) == message
     with pytest.raises(ValueError) as info:
         OnnxPolicy(out)  # play, sim2sim

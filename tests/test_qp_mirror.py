@@ -12,7 +12,7 @@ import mujoco
 import numpy as np
 import pytest
 
-from hybrid_recovery.evaluation.controllers import make_controller
+from hybrid_recovery.controllers import make
 from hybrid_recovery.evaluation.scenario import SWEEP_DIRECTIONS, Scenario
 from hybrid_recovery.evaluation.trial import run_trial, start_state
 from hybrid_recovery.robot import constants
@@ -56,7 +56,7 @@ def test_mirrored_pushes_give_mirrored_outcomes(force, held):
     """Held at 300 N and lost at 450 N on both sides; the CoM paths mirror within 1 cm
     (throughout when held; until the steps, 0.4 s after the push, when lost: stepping
     and falling amplify the solver's round-off)."""
-    qp = make_controller("qp")
+    qp = make("qp")
     left, right = (run_trial(qp, _push(d, force), record=True) for d in ("left", "right"))
     assert left["success"] == right["success"] == held
     assert left["fell"] == right["fell"] == (not held)

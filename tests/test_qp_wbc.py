@@ -196,19 +196,19 @@ def test_nan_state_is_a_clear_error(model):
     assert NAN_STATE_MESSAGE == "BalanceController: the state has NaN or inf entries (qpos or qvel)"
 
 
-def test_eval_adapter(model):
-    from hybrid_recovery.evaluation.model_controllers import eval_controller
+def test_qp_controller(model):
+    from hybrid_recovery.controllers import make
 
-    controller = eval_controller("qp")
-    assert controller.torque_control and controller.physics_dt == model.opt.timestep
+    controller = make("qp")
+    assert controller.output == "torque" and controller.physics_dt == model.opt.timestep
     data = standing_data(model)
     controller.reset(model, data)
     assert controller(model, data).shape == (27,)
     assert controller.info() == {"strategy": "stand", "steps": 0, "qp_went_down": False,
                                  "qp_fallbacks": 0}
     with pytest.raises(ValueError) as info:
-        eval_controller("hybrid")
-    assert str(info.value) == "hybrid controller needs a policy path: hybrid:PATH"
+        make("onnx")
+    assert str(info.value) == "controller 'onnx' needs a policy path: onnx:PATH"
 
 
 def test_model_without_sole_sites_is_refused():

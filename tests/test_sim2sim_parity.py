@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from conftest import REFERENCE_MJCF
 
+from hybrid_recovery.controllers import OnnxPolicyController
 from hybrid_recovery.deploy.sim2sim import Sim2SimConfig, run_sim2sim, start_state
-from hybrid_recovery.evaluation.controllers import OnnxPolicyController
 from hybrid_recovery.evaluation.scenario import Scenario
 from hybrid_recovery.evaluation.trial import run_trial
 from hybrid_recovery.policy import SHIPPED, resolve_policy
@@ -26,7 +26,7 @@ def _outcomes(model_path: str | None, pose: str, tmp_path) -> tuple[dict, dict]:
     except FileNotFoundError as err:
         pytest.skip(str(err))
     qpos, _ = start_state(model_path, pose, 0.001)
-    summary = run_sim2sim(policy, tmp_path, Sim2SimConfig(
+    summary = run_sim2sim(f"onnx:{policy}", tmp_path, Sim2SimConfig(
         model_path=model_path, start_qpos=qpos, seconds=SECONDS, delay_s=DELAY, video=False))
     trial = run_trial(OnnxPolicyController(policy, delay=DELAY),
                       Scenario(pose, duration=SECONDS, noise=0.0), model_path,

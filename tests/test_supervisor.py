@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 from pathlib import Path
 
 import mujoco
@@ -218,3 +219,73 @@ def test_keeps_ankle_and_hip_pushes_and_hands_a_step_over_at_once(model, policy_
     assert supervisor.balance.steps == []
     # ...while the robot is still up: the hand-over comes before the fall.
     assert result.diagnostics[round(event.time / model.opt.timestep) - 1].applicable
+
+
+def _run_plant(plant, model, data, controller, seconds: float, miss: float = 0.0) -> None:
+    """Steps ``plant`` while ``controller`` computes on the nominal ``model``; the motors
+    apply the command plus ``miss`` · τ_lim."""
+    for _ in range(round(seconds / model.opt.timestep)):
+        data.ctrl[:] = controller(model, data) + miss * constants.EFFORT_LIMITS
+        mujoco.mj_step(plant, data)
+
+
+def _tilted_gravity(model: mujoco.MjModel, angle: float) -> mujoco.MjModel:
+    tilted = copy.copy(model)
+    tilted.opt.gravity[:] = 9.81 * np.array([0.0, np.sin(angle), -np.cos(angle)])
+    return tilted
+
+
+def test_nominal_standing_hands_over_without_a_block(model, policy_path):
+    supervisor = HybridSupervisor.from_onnx(policy_path, config=SupervisorConfig(to_qp_dwell=0.3))
+    data = standing_data(model)
+    supervisor.reset(model, data)
+    _run(model, data, supervisor, 0.5)
+    assert [e.kind for e in supervisor.events] == ["to_policy", "to_qp"]
+    assert supervisor.mismatch is None
+
+
+def test_gravity_off_the_contact_normal_blocks_the_qp(model, policy_path):
+    """Gravity tilted 0.03 rad sideways from the floor's normal, beyond a max_ground_tilt
+    of 0.02 rad: the robot stands (it slides off a larger tilt with this stand-in policy),
+    but the QP's ground model does not hold."""
+    tilted = _tilted_gravity(model, 0.03)
+    cfg = SupervisorConfig(to_qp_dwell=0.3, max_ground_tilt=0.02)
+    supervisor = HybridSupervisor.from_onnx(policy_path, config=cfg)
+    data = standing_data(tilted)
+    supervisor.reset(tilted, data)
+    _run(tilted, data, supervisor, 0.8)
+    assert supervisor.mode == "policy"
+    kinds = [(e.kind, e.message) for e in supervisor.events]
+    assert kinds[1] == ("qp_blocked", "ground tilted 1.7 deg from the vertical")
+    assert len(kinds) == 2  # logged once while the dwell restarts
+
+
+def test_a_payload_the_model_lacks_blocks_the_qp(model, policy_path):
+    plant = copy.copy(model)
+    plant.body_mass[model.body(constants.TORSO_BODY).id] += 30.0
+    supervisor = HybridSupervisor.from_onnx(policy_path, config=SupervisorConfig(to_qp_dwell=0.3))
+    data = standing_data(plant)
+    supervisor.reset(model, data)
+    _run_plant(plant, model, data, supervisor, 0.8)
+    assert supervisor.mode == "policy"
+    (blocked,) = [e for e in supervisor.events if e.kind == "qp_blocked"]
+    ratio = float(blocked.message.split()[2])
+    mass = mujoco.mj_getTotalmass(model)
+    assert ratio == pytest.approx((mass + 30.0) / mass, abs=0.05)
+
+
+def test_motors_that_miss_the_command_latch_the_policy(model, policy_path):
+    supervisor = HybridSupervisor.from_onnx(policy_path, config=SupervisorConfig(to_qp_dwell=0.2))
+    data = standing_data(model)
+    supervisor.reset(model, data)
+    _run(model, data, supervisor, 0.4)
+    assert supervisor.mode == "qp"
+    _run_plant(model, model, data, supervisor, 0.01, miss=0.15)  # 15 % of τ_lim off
+    assert supervisor.mode == "policy" and supervisor.mismatch is not None
+    assert supervisor.events[-1].kind == "to_policy"
+    assert supervisor.events[-1].message == ("torque model mismatch: applied torque off the "
+                                             "command by 15% of the limit")
+    _run(model, data, supervisor, 0.6)  # nominal again: the QP stays out this episode
+    assert supervisor.mode == "policy"
+    supervisor.reset(model, data)
+    assert supervisor.mismatch is None

@@ -59,7 +59,7 @@ def bench_deploy(seconds: float = 60.0, policy_dir: str | Path | None = None,
         load_before, cpu0, t0 = os.getloadavg(), _cpu_times(), time.monotonic()
         try:
             safety = SafetyConfig(SafetyLimits.from_robot())
-            report = run_controller(policy_dir, domain, "lo", seconds, safety,
+            report = run_controller(f"onnx:{policy_dir}", domain, "lo", seconds, safety,
                                     wait_timeout_s=30.0, realtime=realtime)
         finally:
             cpu1, wall = _cpu_times(), time.monotonic() - t0

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from hybrid_recovery.cli.registry import command
-from hybrid_recovery.cli.validate import bounded
+from hybrid_recovery.cli.validate import CONTROLLER_HELP, Distinct, bounded
 from hybrid_recovery.evaluation.scenario import MAX_PUSH_FORCE
 
 
@@ -17,13 +17,16 @@ def _demo(args: argparse.Namespace) -> int:
         return 0
     from hybrid_recovery.demo.comparison import run_demo
 
-    run_demo(args.out, video=not args.no_video)
+    run_demo(args.out, video=not args.no_video, controllers=args.controller)
     return 0
 
 
 def _configure_demo(p: argparse.ArgumentParser) -> None:
     p.add_argument("--out", default="results/demo", help="report and video directory")
     p.add_argument("--no-video", action="store_true")
+    p.add_argument("--controller", nargs="+", default=None, action=Distinct,
+                   help=f"only these controllers (default: every available one): "
+                        f"{CONTROLLER_HELP}")
     p.add_argument("--balance", action="store_true",
                    help="only print the dynamics layer's balance report of a pushed robot")
     p.add_argument("--push", type=bounded(0.0, MAX_PUSH_FORCE, "N"), default=150.0,

@@ -3,13 +3,25 @@
 from __future__ import annotations
 
 import argparse
+from dataclasses import replace
 from pathlib import Path
 
 from hybrid_recovery.cli.errors import UsageError, sigterm_as_interrupt
 from hybrid_recovery.cli.registry import command
-from hybrid_recovery.cli.validate import Distinct, bounded, check_model, integer, positive
+from hybrid_recovery.cli.validate import (
+    CONTROLLER_HELP,
+    Distinct,
+    bounded,
+    check_model,
+    integer,
+    positive,
+    terrain,
+)
 from hybrid_recovery.evaluation.scenario import (
+    MAX_DELAY,
+    MAX_PAYLOAD,
     MAX_PUSH_FORCE,
+    MOTOR_STRENGTH_RANGE,
     PUSH_HEIGHT_RANGE,
     SWEEP_DIRECTIONS,
 )
@@ -36,10 +48,19 @@ def _scenarios(args: argparse.Namespace):
         value = getattr(args, name, None)
         if value is None:
             continue
-        if args.protocol == "poses" or (args.protocol == "pushes" and name == "heights"):
+        if args.protocol in ("poses", "terrain") or (args.protocol == "pushes"
+                                                     and name == "heights"):
             raise UsageError(f"eval: --{name} does not apply to the {args.protocol} protocol")
         kwargs[name] = tuple(value)
+    terrains = getattr(args, "terrain", None)
+    if terrains and args.protocol == "terrain":
+        kwargs["terrains"] = tuple(terrains)
     scenarios = PROTOCOLS[args.protocol](args.trials, **kwargs)
+    if terrains and args.protocol != "terrain":
+        scenarios = [replace(s, terrain=t) for t in terrains for s in scenarios]
+    scenarios = [replace(s, motor_strength=getattr(args, "motor_strength", 1.0),
+                         payload=getattr(args, "payload", 0.0),
+                         delay=getattr(args, "delay", 0.0)) for s in scenarios]
     longest = max(scenarios, key=lambda s: s.min_duration)
     if args.duration is not None and args.duration < longest.min_duration:
         why = (f"the push ends at {longest.min_duration - SUCCESS_TIME:g} s, then "
@@ -60,23 +81,38 @@ def _run(args: argparse.Namespace, controller: str, out: Path) -> list[dict]:
             header[name] = list(getattr(args, name))
     if args.stop_on_success:
         header["stop_on_success"] = True
+    if args.terrain:
+        header["terrain"] = list(args.terrain)
+    for name, nominal in (("motor_strength", 1.0), ("payload", 0.0), ("delay", 0.0)):
+        if getattr(args, name) != nominal:  # recorded only off-nominal
+            header[name] = getattr(args, name)
     return run_protocol(_scenarios(args), controller, out / "results.jsonl",
                         model_path=args.model, contact=args.contact, workers=args.workers,
                         header=header, rotor_inertia=args.rotor_inertia,
-                        stop_on_success=args.stop_on_success)
+                        stop_on_success=args.stop_on_success, actuator=args.actuator)
+
+
+def _sections(results: dict[str, list[dict]], out: Path) -> str:
+    """The report's motor and terrain sections (Markdown)."""
+    from hybrid_recovery.evaluation.motor_use import motor_table
+    from hybrid_recovery.evaluation.terrain_results import terrain_section
+
+    motors = motor_table(results)
+    return "\n".join([*(["## Motors", "", motors, ""] if motors else []),
+                      terrain_section(results, out)])
 
 
 def _check(args: argparse.Namespace, controllers: list[str]) -> None:
     """Everything the run will need, before any of it runs or any file is written:
     the scenarios, the model, the contact preset and every controller."""
+    from hybrid_recovery.controllers import make
     from hybrid_recovery.evaluation.contact import check_contact_preset
-    from hybrid_recovery.evaluation.controllers import make_controller
 
     _scenarios(args)
     check_contact_preset(args.contact)
     check_model(args.model)
     for spec in controllers:
-        make_controller(spec)
+        make(spec)
 
 
 def _eval(args: argparse.Namespace) -> int:
@@ -91,7 +127,8 @@ def _eval(args: argparse.Namespace) -> int:
             rows = _run(args, args.controller, out)
         print(summary_table(rows))
         report = write_report({args.controller: rows}, out,
-                              f"{args.protocol}: {args.controller}")
+                              f"{args.protocol}: {args.controller}",
+                              notes=_sections({args.controller: rows}, out))
     print(f"results: {out / 'results.jsonl'}  report: {report}")
     return 0
 
@@ -109,15 +146,18 @@ def _compare(args: argparse.Namespace) -> int:
             with sigterm_as_interrupt():
                 results[spec] = _run(args, spec, out / f"c{k}")
             print(f"== {spec}\n{summary_table(results[spec])}")
-        report = write_report(results, out, f"{args.protocol}: comparison")
+        report = write_report(results, out, f"{args.protocol}: comparison",
+                              notes=_sections(results, out))
     print(f"report: {report}")
     return 0
 
 
 def _common(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--protocol", choices=["poses", "sweep", "pushes"], default="poses")
+    p.add_argument("--protocol", choices=["poses", "sweep", "pushes", "terrain"],
+                   default="poses", help="terrain: the poses on flat ground, slopes, rough "
+                   "ground and steps at rising difficulty (or on --terrain), trials per cell")
     p.add_argument("--trials", type=integer(1), default=100,
-                   help="poses: trials in all; sweep/pushes: trials per cell")
+                   help="poses: trials in all; sweep/pushes/terrain: trials per cell")
     p.add_argument("--poses", nargs="*", default=None, action=Distinct,
                    help="poses, sweep: only these start poses")
     p.add_argument("--duration", type=positive, default=None,
@@ -137,6 +177,22 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--rotor-inertia", action="store_true",
                    help="give the joints the project's rotor inertia (armature), for a "
                         "model file without it such as the manufacturer's")
+    p.add_argument("--terrain", type=terrain, nargs="+", default=None, action=Distinct,
+                   help="the ground: flat, slope:DEG[:HEADING], rough:CM (largest height) or "
+                        "step:CM; several: the protocol on each")
+    p.add_argument("--actuator", choices=["ideal", "dc"], default="ideal",
+                   help="motor model: ideal (full torque at any speed) or dc (torque falls "
+                        "with speed to 0 at the manufacturer's velocity limit)")
+    p.add_argument("--motor-strength", type=bounded(*MOTOR_STRENGTH_RANGE), default=1.0,
+                   help="the motors' torque bound as a fraction of the rated one (weak "
+                        f"motors: < 1), {MOTOR_STRENGTH_RANGE[0]:g} to "
+                        f"{MOTOR_STRENGTH_RANGE[1]:g}; the controllers assume 1")
+    p.add_argument("--payload", type=bounded(0.0, MAX_PAYLOAD, "kg"), default=0.0,
+                   help="a mass on the torso the controllers do not know [kg], 0 to "
+                        f"{MAX_PAYLOAD:g}")
+    p.add_argument("--delay", type=bounded(0.0, MAX_DELAY, "s"), default=0.0,
+                   help="added actuation delay of every controller's output [s], in whole "
+                        f"physics steps, 0 to {MAX_DELAY:g}")
     p.add_argument("--workers", type=integer(1), default=2)
     p.add_argument("--stop-on-success", action="store_true",
                    help="end each trial once it has succeeded (same success and recovery "
@@ -144,14 +200,14 @@ def _common(p: argparse.ArgumentParser) -> None:
 
 
 def _configure_eval(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--controller", default="learned",
-                   help="learned (the shipped policy) | zero | onnx:PATH | qp | hybrid[:PATH]")
+    p.add_argument("--controller", default="learned", help=CONTROLLER_HELP)
     p.add_argument("--out", default="results/eval")
     _common(p)
 
 
 def _configure_compare(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--controllers", nargs="+", required=True, action=Distinct)
+    p.add_argument("--controllers", nargs="+", required=True, action=Distinct,
+                   help=CONTROLLER_HELP)
     p.add_argument("--out", default="results/compare")
     _common(p)
 

@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import argparse
 
+from hybrid_recovery.cli.errors import UsageError
 from hybrid_recovery.cli.registry import command
 from hybrid_recovery.cli.validate import (
+    CONTROLLER_HELP,
     bounded,
     check_model,
     check_push_time,
@@ -13,6 +15,7 @@ from hybrid_recovery.cli.validate import (
     integer,
     non_negative,
     positive,
+    terrain,
 )
 from hybrid_recovery.evaluation.scenario import MAX_PUSH_FORCE
 
@@ -22,6 +25,12 @@ def _play(args: argparse.Namespace) -> int:
 
     check_push_time(args.push, args.push_time, args.seconds)
     refuse_existing(args.out, args.force)
+    if args.terrain != "flat" and args.controller is None:  # a trial of the policy on it
+        if args.randomize:
+            raise UsageError("play: --randomize does not apply with --terrain (the take is an "
+                             "evaluation trial, nominal physics)")
+        args.controller = {"shipped": "learned", "zero": "zero"}.get(args.policy,
+                                                                     f"onnx:{args.policy}")
     if args.controller is not None:
         return _play_controller(args)
     from hybrid_recovery.evaluation.play import onnx_policy, play
@@ -43,15 +52,15 @@ def _play_controller(args: argparse.Namespace) -> int:
     """An evaluation trial of ``--controller`` rendered (the runner's physics and start)."""
     import math
 
-    from hybrid_recovery.evaluation.controllers import make_controller
+    from hybrid_recovery.controllers import make
     from hybrid_recovery.evaluation.scenario import Scenario
     from hybrid_recovery.evaluation.video import render_trial
 
     check_model(args.model)
     scenario = Scenario(args.pose, force=args.push, direction=math.radians(args.push_angle),
                         push_time=args.push_time, push_duration=args.push_duration,
-                        duration=args.seconds, seed=args.seed)
-    path = render_trial(make_controller(args.controller), scenario, args.out, fps=args.fps,
+                        duration=args.seconds, seed=args.seed, terrain=args.terrain)
+    path = render_trial(make(args.controller), scenario, args.out, fps=args.fps,
                         model_path=args.model)
     print(f"wrote {path} ({args.controller}, {args.pose}, {args.seconds:g} s)")
     return 0
@@ -64,8 +73,8 @@ def _configure_play(p: argparse.ArgumentParser) -> None:
                    help="policy.onnx (or its export directory); 'shipped' for the shipped "
                         "policy; 'zero' for zero actions")
     p.add_argument("--controller", default=None,
-                   help="render an evaluation trial of this controller instead (learned | "
-                        "qp | model | hybrid[:PATH] | onnx:PATH | zero)")
+                   help=f"render an evaluation trial of this controller instead: "
+                        f"{CONTROLLER_HELP}")
     p.add_argument("--pose", default="standing", choices=POSES, help="start pose")
     p.add_argument("--seconds", type=positive, default=5.0, help="episode length [s]")
     p.add_argument("--out", default="play.mp4", help="video file to write")
@@ -82,6 +91,9 @@ def _configure_play(p: argparse.ArgumentParser) -> None:
     p.add_argument("--randomize", action="store_true",
                    help="domain-randomised physics instead of nominal")
     p.add_argument("--model", default=None, help="robot MJCF (default: the project's H1-2)")
+    p.add_argument("--terrain", type=terrain, default="flat",
+                   help="the ground: flat, slope:DEG[:HEADING], rough:CM or step:CM (a "
+                        "trial of --controller, or of --policy, on it)")
 
 
 _play.configure = _configure_play  # type: ignore[attr-defined]

@@ -7,6 +7,7 @@ from pathlib import Path
 
 from hybrid_recovery.cli.registry import command
 from hybrid_recovery.cli.validate import (
+    CONTROLLER_HELP,
     bounded,
     check_model,
     check_push_time,
@@ -29,20 +30,23 @@ def _sim2sim(args: argparse.Namespace) -> int:
     check_model(args.model)
     out = Path(args.out)
     check_output(out, args.force)
-    policy = args.policy
-    if policy != "zero":
-        policy = resolve_policy(policy)
-    else:
-        from hybrid_recovery.training.stand_in import write_stand_in_policy
+    spec = args.controller
+    if spec is None:
+        policy = args.policy or "shipped"
+        if policy != "zero":
+            policy = resolve_policy(policy)
+        else:
+            from hybrid_recovery.training.stand_in import write_stand_in_policy
 
-        policy = write_stand_in_policy(out / "stand_in_policy", "zero")
+            policy = write_stand_in_policy(out / "stand_in_policy", "zero")
+        spec = f"onnx:{policy}"
     cfg = Sim2SimConfig(model_path=args.model, rotor_inertia=args.rotor_inertia,
                         pose=args.pose, seconds=args.seconds,
                         push_force=args.push, push_direction_deg=args.push_angle,
                         push_time=args.push_time, push_duration=args.push_duration,
                         delay_s=args.delay_ms / 1e3, startup=args.startup,
                         video=not args.no_video, fps=args.fps)
-    summary = run_sim2sim(policy, out, cfg)
+    summary = run_sim2sim(spec, out, cfg)
     print(f"final CoM height {summary['final_com_height']:.3f} m, max tilt "
           f"{summary['max_tilt_deg']:.1f} deg, upright at end: {summary['upright_at_end']}, "
           f"fault: {summary['fault']}")
@@ -58,9 +62,13 @@ def _sim2sim(args: argparse.Namespace) -> int:
 def _configure(p: argparse.ArgumentParser) -> None:
     from hybrid_recovery.sim.initial_states import POSES
 
-    p.add_argument("--policy", default="shipped",
-                   help="exported policy directory, 'shipped' (the policy shipped in "
-                        "models/policies/h1_2_recovery) or 'zero' for a zero-action stand-in")
+    which = p.add_mutually_exclusive_group()
+    which.add_argument("--policy", default=None,
+                       help="exported policy directory, 'shipped' (the default: the policy "
+                            "shipped in models/policies/h1_2_recovery) or 'zero' for a "
+                            "zero-action stand-in")
+    which.add_argument("--controller", default=None,
+                       help=f"run this controller instead: {CONTROLLER_HELP}")
     p.add_argument("--model", default=None,
                    help="H1-2 MJCF (default: the project's model), e.g. the manufacturer's "
                         "h1_2_handless.xml from unitree_ros")

@@ -132,3 +132,20 @@ def add_backend_options(p: argparse.ArgumentParser) -> None:
                         "'warp' extra)")
     p.add_argument("--device", choices=DEVICES, default=None,
                    help="cpu (the default) | cuda (with --backend warp; the learner too)")
+
+
+CONTROLLER_HELP = ("zero | learned (the shipped policy) | onnx:PATH | qp | model | "
+                   "hybrid[:PATH] (hybrid_recovery.controllers.CONTROLLERS)")
+"""The ``--controller`` help of every command that takes one (tested against the
+registry, which is not imported to build the parser)."""
+
+
+def terrain(text: str) -> str:
+    """An argparse type: a terrain (:func:`hybrid_recovery.sim.terrain.parse_terrain`), as
+    its canonical text (``slope:10.0`` → ``slope:10``)."""
+    from hybrid_recovery.sim.terrain import parse_terrain
+
+    try:
+        return parse_terrain(text).text
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None

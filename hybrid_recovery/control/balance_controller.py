@@ -15,7 +15,8 @@ Each call (every physics step, 500 Hz at dt = 2 ms) reads the state, decides the
 (:mod:`.dcm`) into a desired momentum rate, and solves the whole-body QP
 (:mod:`.wbc_qp`). On the ground (low CoM, a non-foot contact or a large tilt) it
 does not pretend: it reports ``applicable = False`` ("not applicable") and outputs
-joint damping only.
+joint damping only. From a crouch on both feet :meth:`BalanceController.rise` stands the
+robot up (:mod:`.rise`): the same law and QP with rising height and posture references.
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ from hybrid_recovery.control.config import BalanceConfig, default_config
 from hybrid_recovery.control.dcm import DcmCommand, dcm_command, hip_reach
 from hybrid_recovery.control.diagnostics import Capturability, Event, Strategy, TickDiagnostics
 from hybrid_recovery.control.polygon import convex_hull, signed_distance_scalar
+from hybrid_recovery.control.rise import RiseTrajectory, crouched_on_feet, standing_com_height
 from hybrid_recovery.control.robot_state import RobotState, StateReader
 from hybrid_recovery.control.stepping import (
     StepPlan,
@@ -68,6 +70,14 @@ def _yaw_rotation(rot: np.ndarray) -> np.ndarray:
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
+def _mean_heading(rotations: list[np.ndarray]) -> np.ndarray:
+    """R_z(ψ̄) with ψ̄ the circular mean of the headings of the rotations' x axes."""
+    yaws = [np.arctan2(rot[1, 0], rot[0, 0]) for rot in rotations]
+    yaw = np.arctan2(np.mean(np.sin(yaws)), np.mean(np.cos(yaws)))
+    c, s = np.cos(yaw), np.sin(yaw)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
 class BalanceController:
     """Whole-body QP balance controller (ankle, hip and stepping strategies).
 
@@ -93,6 +103,8 @@ class BalanceController:
         self._model: mujoco.MjModel | None = None
         self._qp: WholeBodyQP | None = None
         self._posture_ref: np.ndarray | None = None
+        self._rise: RiseTrajectory | None = None
+        self._standing_height: dict[int, float] = {}
 
     # ------------------------------------------------------------------ lifecycle
     def reset(self, model: mujoco.MjModel, data: mujoco.MjData,
@@ -130,7 +142,41 @@ class BalanceController:
         self._down = False
         self._last_status = "solved"
         self._posture_ref = None if posture is None else np.array(posture, dtype=float)
+        self._rise = None
         self._init_references(self._read(data), float(data.time))
+
+    def rise(self, model: mujoco.MjModel, data: mujoco.MjData) -> bool:
+        """Resets and starts a rise from a crouch on both feet (:mod:`.rise`); False (and
+        nothing started) where the state is no such crouch
+        (:func:`~.rise.crouched_on_feet` with :class:`~.config.RiseConfig`'s bounds).
+
+        ξ_ref is the midpoint of the soles; h_ref and q_ref go from the current CoM
+        height and joints to the standing h* (:func:`~.rise.standing_com_height`) and q*
+        over ``RiseConfig.duration``, then stay there. While rising the QP applies down
+        to ``RiseConfig.min_com_height`` and up to ``RiseConfig.max_tilt``.
+        """
+        self.reset(model, data)
+        cfg = self.config.rise
+        state = self._read(data)
+        if not crouched_on_feet(state, cfg.max_sole_height, cfg.min_com_height, cfg.max_tilt):
+            return False
+        if id(model) not in self._standing_height:
+            self._standing_height[id(model)] = standing_com_height(model)
+        t = float(data.time)
+        self._rise = RiseTrajectory(
+            t, cfg.duration, (float(state.com[2]), self._standing_height[id(model)]),
+            (state.qpos[7:].copy(), constants.DEFAULT_JOINT_POS.copy()))
+        self._xi_ref = np.mean([f.position[:2] for f in state.feet], axis=0)
+        self._cmp_ref = self._xi_ref.copy()
+        self._heading = _mean_heading([f.rotation for f in state.feet])
+        self.events.append(Event(t, "rise", f"rise from CoM height {state.com[2]:.2f} m to "
+                                 f"{self._rise.height[1]:.2f} m over {cfg.duration:.1f} s"))
+        return True
+
+    @property
+    def rising(self) -> bool:
+        """A rise (:meth:`rise`) is under way."""
+        return self._rise is not None
 
     @property
     def qp(self) -> WholeBodyQP:
@@ -170,6 +216,8 @@ class BalanceController:
         """
         start = time.perf_counter()
         state, t, reason = self._begin(model, data)
+        if self._rise is not None:
+            self._follow_rise(state, t)
         if reason:
             return self._not_applicable(state, t, reason, start)
         if self._down:  # back up (e.g. after the policy): start over from this stance
@@ -225,17 +273,39 @@ class BalanceController:
                                DOUBLE_SUPPORT, cmd.capture_point, cmd.cop, cmd.cmp, margin,
                                com=state.com, com_vel=state.com_vel)
 
+    def _follow_rise(self, state: RobotState, t: float) -> None:
+        """Moves h_ref and q_ref along the rise; ends it (q_ref = q*) once the profile is
+        complete and the robot stands (``RiseConfig.end_com_height``, ``end_tilt``)."""
+        assert self._rise is not None
+        self._height_ref = self._rise.height_ref(t)
+        self._posture_ref = self._rise.posture_ref(t)
+        cfg = self.config.rise
+        if self._rise.done(t) and not self._down_reason(state, cfg.end_com_height,
+                                                        cfg.end_tilt):
+            self._rise, self._posture_ref = None, None
+            self.events.append(Event(t, "risen", f"standing: CoM height {state.com[2]:.2f} m"))
+
     # ------------------------------------------------------------------ applicability
     def down_reason(self, state: RobotState) -> str:
-        """Why the QP does not apply ("" when it does): low CoM, non-foot contact, tilt."""
-        cfg = self.config
-        if state.com[2] < cfg.min_com_height:
-            return f"CoM height {state.com[2]:.2f} m < {cfg.min_com_height:.2f} m"
+        """Why the QP does not apply ("" when it does): low CoM, non-foot contact, tilt
+        (while rising with :class:`~.config.RiseConfig`'s bounds)."""
+        if self._rise is None:
+            return self._standing_reason(state)
+        return self._down_reason(state, self.config.rise.min_com_height,
+                                 self.config.rise.max_tilt)
+
+    def _standing_reason(self, state: RobotState) -> str:
+        return self._down_reason(state, self.config.min_com_height, self.config.max_tilt)
+
+    @staticmethod
+    def _down_reason(state: RobotState, min_height: float, max_tilt: float) -> str:
+        if state.com[2] < min_height:
+            return f"CoM height {state.com[2]:.2f} m < {min_height:.2f} m"
         if state.non_foot_contact:
             return "non-foot contact with the ground"
         tilt = float(np.arccos(np.clip(state.pelvis_rotation[2, 2], -1.0, 1.0)))
-        if tilt > cfg.max_tilt:
-            return f"pelvis tilt {np.degrees(tilt):.0f} deg > {np.degrees(cfg.max_tilt):.0f} deg"
+        if tilt > max_tilt:
+            return f"pelvis tilt {np.degrees(tilt):.0f} deg > {np.degrees(max_tilt):.0f} deg"
         return ""
 
     def _not_applicable(self, state: RobotState, t: float, reason: str, start: float
@@ -243,6 +313,9 @@ class BalanceController:
         if not self._down:
             self.events.append(Event(t, "not_applicable", reason))
             self._down = True
+        if self._rise is not None:
+            self.events.append(Event(t, "rise_failed", reason))
+            self._rise = None
         self.went_down = True
         self.diagnostics = TickDiagnostics(
             time=t, applicable=False, reason=reason, strategy=Strategy.NOT_APPLICABLE,
@@ -362,8 +435,10 @@ class BalanceController:
     # ------------------------------------------------------------------ tasks
     def _tasks(self, state: RobotState, cmd: DcmCommand, t: float) -> list[Task]:
         cfg = self.config.qp
-        tasks = [*momentum_tasks(state, cmd, cfg),
-                 pelvis_orientation_task(state, self._heading, cfg),
+        pelvis = pelvis_orientation_task(state, self._heading, cfg)
+        if self._rise is not None:
+            pelvis = dataclasses.replace(pelvis, weight=self.config.rise.w_pelvis_orientation)
+        tasks = [*momentum_tasks(state, cmd, cfg), pelvis,
                  posture_task(state, self._selector, self._posture_w, cfg, self._posture_ref)]
         if self._swing is not None and self._plan is not None:
             tasks.append(swing_foot_task(state.feet[self._plan.swing], self._swing.sample(t),

@@ -147,12 +147,47 @@ class SteppingConfig:
 
 
 @dataclass
+class RiseConfig:
+    """The rise from a crouch with both soles on the ground (:mod:`.rise`).
+
+    The CoM height reference h_ref(t) and the posture reference q_ref(t) follow one
+    minimum-jerk profile s(t) from the crouch (h₀, q₀) to the standing pose (h*, q*) over
+    ``duration``; the capture-point law, the stepping and the QP are the standing ones.
+    """
+
+    duration: float = 3.0
+    """Duration T of the profile s(t) = 10τ³ − 15τ⁴ + 6τ⁵, τ = t/T [s]."""
+    min_com_height: float = 0.3
+    """While rising the QP applies down to this CoM height [m] (standing: 0.6)."""
+    max_tilt: float = 1.3
+    """While rising the QP applies up to this pelvis tilt from vertical [rad] (a squat
+    leans the pelvis 35–60°; standing: 1.0)."""
+    max_sole_height: float = 0.15
+    """A rise starts only with both sole centres this close to the ground [m] (a start
+    dropped onto the ground may have one foot up to ~13 cm above it)."""
+    end_com_height: float = 0.85
+    """The rise ends (the standing weights and bounds return) once the profile is
+    complete, the CoM is this high [m] and ``end_tilt`` holds."""
+    end_tilt: float = 0.35
+    """... and the pelvis is tilted less than this from vertical [rad]."""
+    w_pelvis_orientation: float = 100.0
+    """Weight of the pelvis orientation task while rising [s⁴] (standing: 20). A squat
+    starts with the pelvis pitched 30–40° forward; held less firmly, it pitches further
+    as the knees extend, and the hips' yaw and roll limits (±0.43 rad) lock the legs in
+    a bent-over stance."""
+
+    def __post_init__(self) -> None:
+        check_config(self)
+
+
+@dataclass
 class BalanceConfig:
     """The QP balance controller: its parts and when it applies."""
 
     qp: QpConfig = field(default_factory=QpConfig)
     dcm: DcmConfig = field(default_factory=DcmConfig)
     stepping: SteppingConfig = field(default_factory=SteppingConfig)
+    rise: RiseConfig = field(default_factory=RiseConfig)
     min_com_height: float = 0.6
     """Below this CoM height [m] the robot is down: not applicable."""
     max_tilt: float = 1.0
@@ -195,6 +230,15 @@ class SupervisorConfig:
     evaluation's ``learned`` controller uses 20 ms)."""
     action_scale: float = 0.3
     """q_ref = q* + scale · a [rad]."""
+    max_ground_tilt: float = 0.05
+    """Largest angle θ between a foot contact normal and the vertical for a hand-over to
+    the QP [rad] (its ground is the plane z = 0). Why 0.05: docs/experiments.md §11."""
+    max_weight_error: float = 0.15
+    """Largest |ρ − 1|, ρ = Σ F_z / (m g) averaged over the standing dwell, for a hand-over
+    to the QP (its mass is the model's m)."""
+    max_torque_error: float = 0.1
+    """Largest applied-against-commanded torque error e, a fraction of τ_lim; beyond it
+    the QP's torque model is wrong: the policy acts for the rest of the episode."""
 
     def __post_init__(self) -> None:
         check_config(self)
@@ -225,6 +269,10 @@ RANGES: dict[str, dict[str, Range]] = {
         "replan_period": POSITIVE, "region_vertices": (3, True, float("inf")),
         "touchdown_force": NON_NEGATIVE, "touchdown_timeout": POSITIVE,
         "min_double_support": NON_NEGATIVE, "max_steps": NON_NEGATIVE},
+    "RiseConfig": {
+        "duration": POSITIVE, "min_com_height": POSITIVE, "max_tilt": POSITIVE,
+        "max_sole_height": NON_NEGATIVE, "end_com_height": POSITIVE, "end_tilt": POSITIVE,
+        "w_pelvis_orientation": NON_NEGATIVE},
     "BalanceConfig": {
         "min_com_height": POSITIVE, "max_tilt": POSITIVE, "foot_contact_force": NON_NEGATIVE,
         "damping_gain": NON_NEGATIVE},
@@ -232,12 +280,13 @@ RANGES: dict[str, dict[str, Range]] = {
         "to_policy_delay": NON_NEGATIVE, "to_qp_dwell": NON_NEGATIVE, "to_qp_margin": FINITE,
         "to_qp_max_com_speed": POSITIVE, "to_qp_min_com_height": POSITIVE,
         "to_policy_blend": NON_NEGATIVE, "to_qp_blend": NON_NEGATIVE, "policy_dt": POSITIVE,
-        "policy_delay": NON_NEGATIVE, "action_scale": POSITIVE},
+        "policy_delay": NON_NEGATIVE, "action_scale": POSITIVE, "max_ground_tilt": POSITIVE,
+        "max_weight_error": POSITIVE, "max_torque_error": POSITIVE},
 }
 """Class name → field → range; every number must be finite."""
 
 
-def check_config(config: QpConfig | DcmConfig | SteppingConfig | BalanceConfig
+def check_config(config: QpConfig | DcmConfig | SteppingConfig | RiseConfig | BalanceConfig
                  | SupervisorConfig) -> None:
     """Checks every number of a control config: finite and in its range (:data:`RANGES`).
 

@@ -23,6 +23,15 @@ State machine (every physics step; decisions appended to :attr:`HybridSupervisor
   task holds the joints as the policy left them (the feet may be apart after steps).
   Hand-over of torques: τ = (1 − α) τ_policy + α τ_QP over ``to_qp_blend``.
 
+**Model validity** (:mod:`hybrid_recovery.control.model_validity`): the hand-over to the QP
+also needs its model to hold, else the hybrid acts as the policy alone. At the end of the
+dwell the ground tilt θ ≤ ``max_ground_tilt`` (gravity along the contact normal) and the
+weight ratio ρ averaged over the dwell within ``max_weight_error`` of 1 (the model's
+mass); a blocked hand-over is logged once per reason (``qp_blocked``) and the dwell starts
+again. In either mode, a torque error e > ``max_torque_error`` (the motors did not apply
+the command) marks the QP's torque model wrong for the episode: the policy acts from then
+on (``to_policy``, or ``qp_blocked`` while it already does).
+
 The entry conditions of the QP are stricter than its exit conditions (0-step capturable
 with margin, slow, for a dwell time, against "the hip strategy no longer suffices"):
 that gap and the dwell time are the hysteresis.
@@ -39,6 +48,12 @@ import numpy as np
 from hybrid_recovery.control.balance_controller import BalanceController, check_state
 from hybrid_recovery.control.config import BalanceConfig, SupervisorConfig, default_config
 from hybrid_recovery.control.diagnostics import Capturability, Event, TickDiagnostics
+from hybrid_recovery.control.model_validity import (
+    foot_body_ids,
+    ground_tilt,
+    torque_error,
+    weight_ratio,
+)
 from hybrid_recovery.control.policy_controller import PolicyController, pd_torque
 from hybrid_recovery.policy import OnnxPolicy
 
@@ -62,8 +77,14 @@ class HybridSupervisor:
 
     Attributes:
         mode: ``"qp"`` or ``"policy"``.
-        events: Switching decisions (``"to_policy"``, ``"to_qp"``) with their reasons.
+        events: Switching decisions (``"to_policy"``, ``"to_qp"``, ``"qp_blocked"``) with
+            their reasons.
+        mismatch: Why the QP's torque model is wrong this episode (the motors missed a
+            command by more than ``max_torque_error``); None until then.
         diagnostics: The last tick's :class:`TickDiagnostics` of the capturability check.
+        ground_sensed: The state's contact forces are measured (simulation); False where
+            they are only the model's (the robot runner's estimate: the H1-2 has no foot
+            force sensors), which skips the weight check.
         joint_target: When the last output was the policy's PD law alone, its joint
             targets q_ref (27,) [rad] (for PD servos: the same torque without the
             round trip through τ, exact also where τ is clipped); None otherwise.
@@ -77,9 +98,14 @@ class HybridSupervisor:
         self.events: list[Event] = []
         self.diagnostics: TickDiagnostics | None = None
         self.joint_target: np.ndarray | None = None
+        self.ground_sensed = True
         self._timer = 0.0
         self._switch_time = -np.inf
         self._q_switch = np.zeros(0)
+        self.mismatch: str | None = None
+        self._command: np.ndarray | None = None
+        self._weight_sum, self._weight_count = 0.0, 0
+        self._blocked: set[str] = set()
 
     @classmethod
     def from_onnx(cls, path: str | Path, balance_config: BalanceConfig | None = None,
@@ -98,6 +124,9 @@ class HybridSupervisor:
         self.policy.reset(model, data)
         self._timer = 0.0
         self._switch_time = -np.inf
+        self.mismatch, self._command = None, None
+        self._weight_sum, self._weight_count = 0.0, 0
+        self._blocked = set()
         first = self.balance.assess(model, data)
         self.diagnostics = first
         self.mode = POLICY
@@ -112,10 +141,51 @@ class HybridSupervisor:
     def __call__(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
         """τ (27,) [N·m] of the active controller, blended during a hand-over.
 
+        ``data.actuator_force`` is read as the torque the motors applied in the last step,
+        to check the command of the call before (:attr:`mismatch`).
+
         Raises:
             ValueError: On a non-finite state (as :class:`BalanceController`).
         """
+        self._command = self._tick(model, data)
+        return self._command
+
+    def _check_torque(self, data: mujoco.MjData) -> None:
+        """Latches :attr:`mismatch` once the applied torque is off the last command; a
+        state without a torque reading (``data.actuator_force`` not finite, as the robot
+        runner's estimate) is not checked."""
+        if (self.mismatch is not None or self._command is None
+                or not np.all(np.isfinite(data.actuator_force))):
+            return
+        command = self._command
+        error = torque_error(data.actuator_force, command)
+        if error > self.config.max_torque_error:
+            self.mismatch = (f"torque model mismatch: applied torque off the command by "
+                             f"{error:.0%} of the limit")
+
+    def _valid(self, model: mujoco.MjModel, data: mujoco.MjData) -> str | None:
+        """Why the QP's model does not hold now (None: it does), at the end of the dwell."""
+        cfg = self.config
+        tilt = ground_tilt(model, data, foot_body_ids(model))
+        ratio = self._weight_sum / max(self._weight_count, 1)
+        if self.mismatch is not None:
+            return self.mismatch
+        if tilt > cfg.max_ground_tilt:
+            return f"ground tilted {np.degrees(tilt):.1f} deg from the vertical"
+        if self.ground_sensed and abs(ratio - 1.0) > cfg.max_weight_error:
+            return f"ground reaction {ratio:.2f} times the model's weight"
+        return None
+
+    def _block(self, t: float, reason: str) -> None:
+        """Logs a blocked hand-over to the QP, once per kind of reason."""
+        kind = " ".join(reason.split()[:2])
+        if kind not in self._blocked:
+            self._blocked.add(kind)
+            self.events.append(Event(t, "qp_blocked", reason))
+
+    def _tick(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
         check_state(data)
+        self._check_torque(data)
         t, dt = float(data.time), float(model.opt.timestep)
         cfg = self.config
         self.joint_target = None
@@ -126,6 +196,9 @@ class HybridSupervisor:
             assert diag is not None
             if not diag.applicable:
                 return self._to_policy(model, data, f"QP not applicable: {diag.reason}")
+            if self.mismatch is not None:
+                self._blocked.add("torque model")  # the hand-over says why
+                return self._to_policy(model, data, self.mismatch)
             beyond = diag.capturability >= cfg.hand_over_at
             self._timer = self._timer + dt if beyond else 0.0
             if beyond and self._timer >= cfg.to_policy_delay - 1e-9:
@@ -142,11 +215,22 @@ class HybridSupervisor:
                     and diag.com[2] >= cfg.to_qp_min_com_height
                     and float(np.linalg.norm(diag.com_vel)) <= cfg.to_qp_max_com_speed)
         self._timer = self._timer + dt if standing else 0.0
+        if standing:
+            self._weight_sum += weight_ratio(model, data, mujoco.mj_getTotalmass(model))
+            self._weight_count += 1
+        else:
+            self._weight_sum, self._weight_count = 0.0, 0
+        if self.mismatch is not None:
+            self._block(t, self.mismatch)
         q, qd = self.policy.joints(data)
         alpha = self._alpha(t, cfg.to_policy_blend)
         target = (1.0 - alpha) * self._q_switch + alpha * q_ref
         policy_torque = pd_torque(target, q, qd)
-        if self._timer >= cfg.to_qp_dwell - 1e-9:
+        invalid = self._valid(model, data) if self._timer >= cfg.to_qp_dwell - 1e-9 else None
+        if invalid is not None:
+            self._timer, self._weight_sum, self._weight_count = 0.0, 0.0, 0
+            self._block(t, invalid)
+        elif self._timer >= cfg.to_qp_dwell - 1e-9:
             self.mode, self._timer, self._switch_time = QP, 0.0, t
             self.events.append(Event(t, "to_qp", f"standing for {cfg.to_qp_dwell:.2f} s "
                                      f"(margin {diag.margin:.3f} m)"))

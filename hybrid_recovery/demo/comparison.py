@@ -10,11 +10,12 @@ the hybrid (ground moves, policy, QP) when it is shipped.
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
 
-from hybrid_recovery.evaluation.controllers import make_controller
+from hybrid_recovery.controllers import make
 from hybrid_recovery.evaluation.report import write_report
 from hybrid_recovery.evaluation.scenario import Scenario
 from hybrid_recovery.evaluation.trial import run_trial
@@ -35,7 +36,7 @@ def available_controllers() -> tuple[list[str], list[str]]:
     """(controller specs to run, notes on what is missing)."""
     specs, notes = ["zero"], []
     try:
-        make_controller("qp")
+        make("qp")
         specs += ["qp", "model"]
     except ValueError as err:
         notes.append(f"QP baseline not available: {err}")
@@ -49,19 +50,31 @@ def available_controllers() -> tuple[list[str], list[str]]:
     return specs, notes
 
 
-def run_demo(out_dir: str | Path = "results/demo", video: bool = True) -> Path:
-    """Runs every scenario with every available controller; prints a table, writes the
-    report (with the capture-point figure of the 200 N push) and one short video."""
+def run_demo(out_dir: str | Path = "results/demo", video: bool = True,
+             controllers: Sequence[str] | None = None) -> Path:
+    """Runs every scenario with every available controller (or with ``controllers``,
+    registry specs); prints a table, writes the report (with the capture-point figure of
+    the 200 N push) and one short video.
+
+    Raises:
+        ValueError: a spec of ``controllers`` the registry does not build (before any
+            trial runs).
+    """
+    if controllers:
+        specs, notes = list(controllers), list[str]()
+        for spec in specs:
+            make(spec)
+    else:
+        specs, notes = available_controllers()
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    specs, notes = available_controllers()
     for note in notes:
         print(f"note: {note}")
     results: dict[str, list[dict]] = {}
     traces = {}
     start = time.time()
     for spec in specs:
-        controller = make_controller(spec)
+        controller = make(spec)
         label = _label(spec)
         rows = []
         for name, scenario in DEMO_SCENARIOS.items():
@@ -118,7 +131,7 @@ def _video(spec: str, out: Path) -> None:
     scenario = DEMO_SCENARIOS["push 450 N (fall)" if spec.startswith(("learned", "onnx", "hybrid"))
                                else "push 200 N forward"]
     try:
-        path = render_trial(make_controller(spec), scenario, out / "demo.mp4", seconds=6.0)
+        path = render_trial(make(spec), scenario, out / "demo.mp4", seconds=6.0)
         print(f"video: {path} (renderer: {renderer_backend()})")
     except Exception as err:  # keep the report; say why there is no video
         print(f"note: no video ({type(err).__name__}: {err})")

@@ -1,9 +1,12 @@
 """The two ends of the robot link over DDS: the 50 Hz controller and the simulated robot.
 
-Controller (:func:`run_controller`): every 20 ms take the newest ``LowState_``, run the
-policy when the safety state machine is in POLICY, let the machine produce the command,
-publish it as ``LowCmd_`` (``mode_machine`` echoed from the state, ``mode_pr`` = 0). On the
-real H1-2 the same loop runs against the robot's own ``rt/lowstate``/``rt/lowcmd``.
+Controller (:func:`run_controller`): every control period (20 ms for a policy, the
+controller's physics step for the others) take the newest ``LowState_``, run the
+controller when the safety state machine is in POLICY, let the machine produce the
+command, send it in the controller's output kind (:mod:`~.controller_runner`: position
+targets with gains, or feed-forward torque with kp = 0), publish it as ``LowCmd_``
+(``mode_machine`` echoed from the state, ``mode_pr`` = 0). On the real H1-2 the same loop
+runs against the robot's own ``rt/lowstate``/``rt/lowcmd``.
 
 Simulated robot (:func:`serve_sim_robot`): MuJoCo at 1 kHz under the newest valid
 ``LowCmd_``, publishing ``LowState_`` every 2 ms (500 Hz) with an increasing tick.
@@ -14,15 +17,15 @@ message instead of ≈ 1.3 ms for cyclonedds' Python serialiser).
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
 
+from hybrid_recovery.deploy.controller_runner import make_runner
 from hybrid_recovery.deploy.fast_dds import FastLink
-from hybrid_recovery.deploy.policy_runner import PolicyRunner
 from hybrid_recovery.deploy.robot_io import JointCommand, LowStateReading
 from hybrid_recovery.deploy.state_machine import Fault, Phase, SafetyConfig, SafetyStateMachine
 from hybrid_recovery.deploy.timing import LoopStats, PeriodicClock, try_realtime
@@ -73,12 +76,16 @@ class ControllerReport:
     stats: dict[str, float] = field(default_factory=dict)
 
 
-def run_controller(policy_dir: str | Path, domain_id: int = 0, interface: str = "lo",
+def run_controller(controller: str, domain_id: int = 0, interface: str = "lo",
                    seconds: float | None = None, safety: SafetyConfig | None = None,
                    wait_timeout_s: float = 10.0, damping_s: float = 0.5,
                    realtime: bool = False,
                    writer_watch_s: float = WRITER_WATCH_S) -> ControllerReport:
-    """Runs the controller until ``seconds`` after the first state, a fault, or Ctrl-C.
+    """Runs a controller until ``seconds`` after the first state, a fault, or Ctrl-C.
+
+    ``controller`` is a registry spec (:func:`hybrid_recovery.controllers.make`), e.g.
+    ``onnx:DIR`` for an export directory or ``hybrid``; the state machine ticks at its
+    runner's period (``safety.period_s`` is replaced by it).
 
     Then it sends damping commands for ``damping_s`` and returns. An exception inside
     the loop (a malformed message, an inference error, a bug) is a fault too: damping
@@ -91,13 +98,16 @@ def run_controller(policy_dir: str | Path, domain_id: int = 0, interface: str = 
     (:attr:`Fault.OTHER_WRITER`: damping).
 
     Raises:
-        PolicyMismatchError: the policy does not match the robot (checked first).
+        ValueError: an unknown controller, or
+            :class:`~.policy_runner.PolicyMismatchError`: the policy does not match the
+            robot (checked first).
         TimeoutError: no state arrived within ``wait_timeout_s``.
         OtherWriterError: another process writes ``rt/lowcmd`` (nothing was sent).
         ControllerError: the loop failed (after damping was sent).
     """
-    sm = SafetyStateMachine(safety or SafetyConfig(SafetyLimits.from_robot()))
-    runner = PolicyRunner(policy_dir, target_range_factor=sm.config.q_ref_range_factor)
+    safety = safety or SafetyConfig(SafetyLimits.from_robot())
+    runner = make_runner(controller, safety.q_ref_range_factor)
+    sm = SafetyStateMachine(dataclasses.replace(safety, period_s=runner.period_s))
     link = FastLink(domain_id, interface, "controller")
     t_joined = time.monotonic()
     scheduling = try_realtime() if realtime else "normal"
@@ -139,7 +149,7 @@ def run_controller(policy_dir: str | Path, domain_id: int = 0, interface: str = 
             if sm.phase is Phase.POLICY and before is not Phase.POLICY:
                 runner.reset()
             if cmd is not None and state is not None:
-                link.write(encode_low_cmd(cmd, state.mode_machine))
+                link.write(encode_low_cmd(runner.command(cmd, sm.phase), state.mode_machine))
                 sent += 1
             stats.wake.append(now)
             stats.deadline.append(deadline)
@@ -218,8 +228,8 @@ class SimRobotReport:
     first_tick: int
     last_tick: int
     standing: dict[str, float] | None
-    """Pelvis height [m] and torso tilt [deg] when the last position-controlled command
-    (any kp > 0) was replaced by a limp or damping one, or at the end."""
+    """Pelvis height [m] and torso tilt [deg] when the last active command (any kp > 0,
+    or a feed-forward torque) was replaced by a limp or damping one, or at the end."""
     final: dict[str, float]
     stats: dict[str, float] = field(default_factory=dict)
 
@@ -228,7 +238,7 @@ def serve_sim_robot(cfg: SimRobotConfig | None = None, domain_id: int = 0,
                     interface: str = "lo", seconds: float = 30.0, idle_exit_s: float = 1.0,
                     realtime: bool = False) -> SimRobotReport:
     """Runs the simulated robot in real time for ``seconds``, or until no command arrived
-    for ``idle_exit_s`` after the controller went to damping (all kp = 0).
+    for ``idle_exit_s`` after the controller went to damping (all kp = 0, no torque).
 
     Raises:
         OtherWriterError: another robot publishes ``rt/lowstate`` on the domain (watched
@@ -257,10 +267,10 @@ def serve_sim_robot(cfg: SimRobotConfig | None = None, domain_id: int = 0,
             seen = raw.count
             if robot.apply_command_wire(raw.wire) and robot.command is not None:
                 t_last_cmd = now
-                stiff = bool(np.any(robot.command.kp > 0))
-                if positioned and not stiff and standing is None:
+                active = bool(np.any(robot.command.kp > 0) or np.any(robot.command.tau != 0))
+                if positioned and not active and standing is None:
                     standing = _pose(robot)
-                positioned = positioned or stiff
+                positioned = positioned or active
         robot.step(substeps)
         link.write(robot.state_wire())
         published += 1

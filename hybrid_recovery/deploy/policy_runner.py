@@ -17,8 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
-from hybrid_recovery.deploy.robot_io import LowStateReading
-from hybrid_recovery.deploy.state_machine import PolicyOutput
+from hybrid_recovery.deploy.robot_io import JointCommand, LowStateReading
+from hybrid_recovery.deploy.state_machine import Phase, PolicyOutput
 from hybrid_recovery.policy import OnnxPolicy, policy_step
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.action import ACTION_CLIP, TARGET_RANGE_FACTOR
@@ -31,7 +31,8 @@ class PolicyMismatchError(ValueError):
 
 
 class PolicyRunner:
-    """Runs ``policy.onnx`` with onnxruntime after checking ``policy.json``.
+    """Runs ``policy.onnx`` with onnxruntime after checking ``policy.json``; its output
+    is position targets (``output = "position"``).
 
     Args:
         policy_dir: Directory with ``policy.onnx`` and ``policy.json`` (from ``export``).
@@ -46,9 +47,12 @@ class PolicyRunner:
             constants, the observation layout or the control period.
     """
 
+    output = "position"
+
     def __init__(self, policy_dir: str | Path, period_s: float = 0.02, threads: int = 1,
                  target_range_factor: float = TARGET_RANGE_FACTOR) -> None:
         self.policy_dir = policy_dir = Path(policy_dir)
+        self.period_s = period_s
         try:
             self.policy = OnnxPolicy(policy_dir / "policy.onnx", threads,
                                      require_description=True)
@@ -83,3 +87,8 @@ class PolicyRunner:
                            self.last_action, self.action_scale)
         self.last_action = step.last_action
         return PolicyOutput(obs=step.obs, action=step.action, q_ref=step.q_ref)
+
+    def command(self, cmd: JointCommand, phase: Phase) -> JointCommand:
+        """The machine's command as sent: the policy's targets with its gains, unchanged."""
+        del phase
+        return cmd

@@ -1,14 +1,15 @@
-"""Sim-to-sim: the exported ONNX policy in MuJoCo at 1 kHz physics / 50 Hz control.
+"""Sim-to-sim: a controller in MuJoCo at 1 kHz physics as on the robot (a policy at 50 Hz).
 
-The same pieces as on the robot, without DDS: :class:`~.policy_runner.PolicyRunner` (the
-training observation builder), :class:`~.state_machine.SafetyStateMachine` (faults →
-damping) and the motor-driver PD of :class:`~.sim_robot.SimRobot` (MuJoCo position
-actuators with constants.KP/KD from the command). Any H1-2 MJCF loads: the project's own
-(default) or the manufacturer's mesh model, through the same loader as the evaluation
-(:func:`hybrid_recovery.robot.mjcf.load_spec`). Start poses are settled as in training
-(:func:`hybrid_recovery.sim.initial_states.settle_pool`); a torso push and an actuation
-delay can be added. Writes ``trace.csv``, ``trace.png``, ``summary.json`` and, with a
-renderer, ``video.mp4``.
+The same pieces as on the robot, without DDS: the runner of ``--controller``
+(:func:`~.controller_runner.make_runner`: the policy on the training observation builder,
+or any registered controller on the state estimated from the robot's sensors),
+:class:`~.state_machine.SafetyStateMachine` (faults → damping) and the motor drivers of
+:class:`~.sim_robot.SimRobot` (PD from the command's gains, feed-forward torque). Any H1-2
+MJCF loads: the project's own (default) or the manufacturer's mesh model, through the
+same loader as the evaluation (:func:`hybrid_recovery.robot.mjcf.load_spec`). Start poses
+are settled as in training (:func:`hybrid_recovery.sim.initial_states.settle_pool`); a
+torso push and an actuation delay can be added. Writes ``trace.csv``, ``trace.png``,
+``summary.json`` and, with a renderer, ``video.mp4``.
 
 The video is drawn with OpenGL where a context can be made, else in software
 (:class:`hybrid_recovery.sim.render.BalanceRenderer`); ``summary.json`` names which.
@@ -19,13 +20,13 @@ from __future__ import annotations
 import json
 import math
 from collections import deque
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 from hybrid_recovery.deploy.balance_trace import BalanceTrace
-from hybrid_recovery.deploy.policy_runner import PolicyRunner
+from hybrid_recovery.deploy.controller_runner import make_runner
 from hybrid_recovery.deploy.robot_io import JointCommand
 from hybrid_recovery.deploy.sim_robot import SimRobot, SimRobotConfig
 from hybrid_recovery.deploy.state_machine import Phase, SafetyConfig, SafetyStateMachine
@@ -104,18 +105,24 @@ def check_output(out_dir: str | Path, force: bool) -> None:
         refuse_existing(out_dir, force, f"a sim2sim run ({', '.join(held)})")
 
 
-def run_sim2sim(policy_dir: str | Path, out_dir: str | Path,
+def run_sim2sim(controller: str, out_dir: str | Path,
                 cfg: Sim2SimConfig | None = None) -> dict:
-    """Runs the policy, writes the trace, plot, summary and video; returns the summary.
+    """Runs a controller (a registry spec, e.g. ``onnx:DIR`` or ``qp``), writes the trace,
+    plot, summary and video; returns the summary.
 
     A run whose simulation diverges (:func:`~hybrid_recovery.sim.divergence.divergence`)
     stops there: the summary's ``diverged`` is true, ``divergence`` says why and when,
     and ``upright_at_end`` is false.
 
     Raises:
+        ValueError: an unknown controller or a policy that does not fit (nothing is
+            written).
         SimulationDiverged: the start state is not finite (nothing is written).
     """
     cfg = cfg or Sim2SimConfig()
+    safety = SafetyConfig(SafetyLimits.from_robot(cfg.model_path), skip_startup=not cfg.startup)
+    runner = make_runner(controller, safety.q_ref_range_factor)  # refuses a bad spec first
+    safety = replace(safety, period_s=runner.period_s)
     robot_cfg = SimRobotConfig(model_path=cfg.model_path, physics_dt=0.001,
                                rotor_inertia=cfg.rotor_inertia)
     if cfg.start_qpos is None:
@@ -128,9 +135,7 @@ def run_sim2sim(policy_dir: str | Path, out_dir: str | Path,
         raise SimulationDiverged(f"the start state has diverged ({diverged})")
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    safety = SafetyConfig(SafetyLimits.from_robot(cfg.model_path), skip_startup=not cfg.startup)
     sm = SafetyStateMachine(safety)
-    runner = PolicyRunner(policy_dir, target_range_factor=safety.q_ref_range_factor)
     trace = BalanceTrace(RobotModel(robot.model))
     decimation = round(safety.period_s / robot_cfg.physics_dt)
     delay_steps = round(cfg.delay_s / robot_cfg.physics_dt)
@@ -148,7 +153,7 @@ def run_sim2sim(policy_dir: str | Path, out_dir: str | Path,
             if sm.phase is Phase.POLICY and before is not Phase.POLICY:
                 runner.reset()
             if cmd is not None:
-                pending.append((k + delay_steps, cmd))
+                pending.append((k + delay_steps, runner.command(cmd, sm.phase)))
             d = robot.data
             trace.record(robot.time, sm.phase.value, d.qpos, d.qvel,
                          projected_gravity(state.quat), float(np.linalg.norm(robot.push)))

@@ -9,6 +9,7 @@ from typing import Any
 
 from hybrid_recovery.envs.config_values import check_section, checked_value
 from hybrid_recovery.robot.action import TARGET_RANGE_FACTOR
+from hybrid_recovery.robot.actuator import SATURATION_RATIO, Actuator, check_actuator
 from hybrid_recovery.robot.constants import UPRIGHT_COM_HEIGHT
 
 
@@ -304,6 +305,48 @@ class RiseConfig:
 
 
 @dataclass
+class TerrainConfig:
+    """Terrain under each episode (beyond the paper; off by default), see
+    :mod:`hybrid_recovery.envs.terrain_tiles`.
+
+    Each episode draws its ground by ``weights``: flat, a slope (any heading), rough ground
+    or a step edge through the start, its size ``level`` × the largest × U(0.5, 1) (rough:
+    the nearest of ``rough_levels`` fields of max_rough · k / K). The level starts at 0
+    and rises by ``step`` each time the outcome rate (``curriculum.advance_on``) of the
+    last ``window`` episodes reaches ``advance``, falls below ``retreat``. The critic sees
+    the ground's heights on a ``height_grid`` × ``height_grid`` grid ``height_spacing``
+    apart around the base (heading frame) below the base; the actor sees none.
+    """
+
+    enabled: bool = False
+    weights: dict[str, float] = field(default_factory=lambda: {
+        "flat": 1.0, "slope": 1.0, "rough": 1.0, "step": 1.0})
+    """Sampling weights of the terrain kinds."""
+    max_slope: float = 15.0
+    """[deg]."""
+    max_rough: float = 0.05
+    """Largest height of rough ground [m]."""
+    rough_levels: int = 5
+    max_step: float = 0.10
+    """[m]."""
+    advance: float = 0.6
+    retreat: float = 0.3
+    window: int = 256
+    step: float = 0.1
+    height_grid: int = 7
+    height_spacing: float = 0.3
+    """[m]."""
+
+    def __post_init__(self) -> None:
+        check_section(self, "terrain.")
+        unknown = set(self.weights) - {"flat", "slope", "rough", "step"}
+        if unknown:
+            raise ValueError(f"terrain.weights has unknown kinds {sorted(unknown)}; known: "
+                             "['flat', 'slope', 'rough', 'step']")
+        _check_rates(self)
+
+
+@dataclass
 class EnvConfig:
     """The recovery environment (paper §III-C–§III-G)."""
 
@@ -351,6 +394,13 @@ class EnvConfig:
     """[m]."""
     upright_height: float = UPRIGHT_COM_HEIGHT
     """CoM height of the success criterion [m]."""
+    actuator: Actuator = "ideal"
+    """Motor model (:mod:`hybrid_recovery.robot.actuator`): ``ideal``, ±τ_lim at any speed,
+    or ``dc``, the torque–speed curve (applied every physics substep; ``batch`` backend
+    only)."""
+    actuator_saturation: float = SATURATION_RATIO
+    """τ_sat / τ_lim of the ``dc`` model (why 1:
+    :data:`~hybrid_recovery.robot.actuator.SATURATION_RATIO`)."""
     rewards: RewardConfig = field(default_factory=RewardConfig)
     noise: NoiseConfig = field(default_factory=NoiseConfig)
     domain_rand: DomainRandConfig = field(default_factory=DomainRandConfig)
@@ -359,12 +409,18 @@ class EnvConfig:
     assist: AssistConfig = field(default_factory=AssistConfig)
     bridge: BridgeConfig = field(default_factory=BridgeConfig)
     rises: RiseConfig = field(default_factory=RiseConfig)
+    terrain: TerrainConfig = field(default_factory=TerrainConfig)
 
     def __post_init__(self) -> None:
         check_section(self, "")
+        check_actuator(self.actuator)
+        if self.actuator == "dc" and self.backend != "batch":
+            raise ValueError(f"actuator 'dc' needs the batch backend, got '{self.backend}'")
+        if self.terrain.enabled and self.backend != "batch":
+            raise ValueError(f"terrain needs the batch backend, got '{self.backend}'")
 
 
-def _check_rates(config: BridgeConfig | RiseConfig) -> None:
+def _check_rates(config: BridgeConfig | RiseConfig | TerrainConfig) -> None:
     """The stand-up rates that move a level: retreat below advance."""
     if not config.retreat < config.advance:
         raise ValueError(f"{type(config).__name__}.retreat must be < advance, got retreat "

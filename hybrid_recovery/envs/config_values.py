@@ -48,6 +48,7 @@ RANGES: dict[str, Range] = {
     "stuck_time": POSITIVE,
     "stuck_rise": NON_NEGATIVE,
     "upright_height": POSITIVE,
+    "actuator_saturation": POSITIVE,
     "rewards.height_target": POSITIVE,
     "rewards.w_height": WEIGHT,
     "rewards.sigma_height": POSITIVE,
@@ -116,6 +117,17 @@ RANGES: dict[str, Range] = {
     "rises.advance": (0.0, False, 1.0),
     "rises.retreat": UNIT,
     "rises.window": (1, True, math.inf),
+    "terrain.weights": NON_NEGATIVE,
+    "terrain.max_slope": (0.0, False, 45.0),
+    "terrain.max_rough": (0.0, False, 0.2),
+    "terrain.rough_levels": (1, True, 50),
+    "terrain.max_step": (0.0, False, 0.3),
+    "terrain.advance": (0.0, False, 1.0),
+    "terrain.retreat": UNIT,
+    "terrain.window": (1, True, math.inf),
+    "terrain.step": (0.0, False, 1.0),
+    "terrain.height_grid": (1, True, 51),
+    "terrain.height_spacing": POSITIVE,
     "ppo.clip_param": (0.0, False, math.inf),
     "ppo.gamma": (0.0, False, 1.0),
     "ppo.lam": (0.0, True, 1.0),
@@ -218,6 +230,10 @@ def _coerce(value: Any, hint: Any) -> Any:
             return _coerce(value, inner)
         except _Refused as err:
             raise _Refused(f"{err.expected} or null") from None
+    if origin is typing.Literal:
+        if value not in args:
+            raise _Refused("one of " + ", ".join(repr(a) for a in args))
+        return value
     if hint is bool:
         if not isinstance(value, bool):
             raise _Refused("true or false")

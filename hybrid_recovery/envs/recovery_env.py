@@ -30,6 +30,7 @@ from hybrid_recovery.envs.assist import Assist
 from hybrid_recovery.envs.config import EnvConfig, default_config
 from hybrid_recovery.envs.curriculum import Curriculum
 from hybrid_recovery.envs.domain_rand import RANDOMIZED_FIELDS, Randomizer
+from hybrid_recovery.envs.motors import DcMotors
 from hybrid_recovery.envs.pose_bridge import PoseBridge
 from hybrid_recovery.envs.pushes import Pushes
 from hybrid_recovery.envs.rewards import RewardState, compute_rewards
@@ -41,6 +42,7 @@ from hybrid_recovery.envs.step_state import (
     reward_state,
 )
 from hybrid_recovery.envs.terminations import TERMINATIONS, StuckLow, success_step
+from hybrid_recovery.envs.terrain_tiles import TerrainTiles, rough_terrains
 from hybrid_recovery.observation.actor import actor_observation, noise_halfwidths
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.action import clip_action, joint_targets
@@ -95,12 +97,16 @@ class RecoveryEnv(VecEnv):
         self.rng = np.random.default_rng(cfg.seed)
         delay = np.round(np.asarray(cfg.delay_range) / cfg.physics_dt).astype(int)
         self._delay_steps = (int(delay[0]), int(delay[1]))
-        self.model, self.layout = build_scene(cfg.model_path, cfg.physics_dt,
-                                              delay_samples=int(delay[1]) + 2)
+        terrain = cfg.terrain.enabled
+        self.model, self.layout = build_scene(
+            cfg.model_path, cfg.physics_dt, delay_samples=int(delay[1]) + 2,
+            rough=rough_terrains(cfg.terrain) if terrain else (),
+            step_height=cfg.terrain.max_step if terrain else 0.0)
         n, m = cfg.num_envs, self.model
         self.rises = RiseStarts(cfg.rises, m.nq, m.nv)  # its files checked before the work
         self.sims = physics_batch(m, n, cfg.num_threads, cfg.backend, cfg.device,
-                                  expand=(*RANDOMIZED_FIELDS, "actuator_delay"),
+                                  expand=(*RANDOMIZED_FIELDS, "actuator_delay",
+                                          *(("geom_quat", "geom_pos") if terrain else ())),
                                   local_rank=local_rank)
         b = self.sims.bind
         self.qpos, self.qvel, self.ctrl = b("qpos"), b("qvel"), b("ctrl")
@@ -120,6 +126,11 @@ class RecoveryEnv(VecEnv):
         self.knees = np.array([mujoco.mj_name2id(m, mujoco.mjtObj.mjOBJ_BODY, name)
                                for name in constants.KNEE_BODIES])
         self.randomizer = Randomizer(m, self.sims, cfg.domain_rand)
+        self.motors = DcMotors(self.randomizer.force_range, self.qvel, m,
+                               cfg.actuator_saturation) if cfg.actuator == "dc" else None
+        """The DC motor model (``cfg.actuator == "dc"``), else None: ideal motors."""
+        self.terrain = TerrainTiles(m, self.sims, cfg.terrain) if terrain else None
+        """Each episode's ground (``cfg.terrain.enabled``), else None: flat ground."""
         self._device: torch.device | None = None if isinstance(self.sims, mjbatch.Batch) \
             else cast("WarpBatch", self.sims).torch_device
         """The simulation's torch device (None: CPU MuJoCo's numpy arrays)."""
@@ -267,10 +278,18 @@ class RecoveryEnv(VecEnv):
         failed = np.zeros(self.num_envs, dtype=bool)
         clock = self.sims.bind("time") if self._device is None else None
         before = None if clock is None else clock.copy()
-        try:
-            self.sims.step(nstep=self.cfg.decimation, stage=mujoco.mjtStage.mjSTAGE_VEL)
-        except mjbatch.SimulationError as err:
-            failed[np.asarray(err.ids)] = True
+        # the DC model's force ranges follow the speeds: one substep at a time
+        # (the derived fields only after the last: qvel, all the model reads, is state)
+        substeps = [self.cfg.decimation] if self.motors is None else [1] * self.cfg.decimation
+        for k, nstep in enumerate(substeps):
+            if self.motors is not None:
+                self.motors.apply()
+            last = k == len(substeps) - 1
+            try:
+                self.sims.step(nstep=nstep, stage=mujoco.mjtStage.mjSTAGE_VEL if last
+                               else mujoco.mjtStage.mjSTAGE_NONE)
+            except mjbatch.SimulationError as err:
+                failed[np.asarray(err.ids)] = True
         if clock is not None and before is not None:  # CPU MuJoCo resets what it finds unstable
             dt = self.model.opt.timestep
             failed |= clock_broken(before, clock, self.cfg.decimation * dt, dt)
@@ -295,11 +314,14 @@ class RecoveryEnv(VecEnv):
         ``ids``."""
         xp, sim = self._xp, self._sim
         rows = slice(None) if ids is None else self._rows(ids)
+        sensordata = xp.asarray(sim["sensordata"][rows], copy=True)
+        ground = None if self.terrain is None else self.terrain.ground(  # under the CoM
+            sensordata[:, self.layout.com][:, None, :2], ids)[:, 0]
         new = read_step_state(
-            xp.asarray(sim["sensordata"][rows], copy=True), sim["xmat"][rows], sim["qpos"][rows],
+            sensordata, sim["xmat"][rows], sim["qpos"][rows],
             sim["qvel"][rows], xp.asarray(sim["actuator_force"][rows], copy=True),
             xp.sum(sim["body_mass"][rows, 1:], axis=1), self.prev_momentum[rows],
-            self.prev_com_vel[rows], self._at, self.dt)
+            self.prev_com_vel[rows], self._at, self.dt, ground)
         momentum = new.pop("momentum")
         self.prev_momentum[rows] = xp.astype(momentum, self.prev_momentum.dtype)
         self.prev_com_vel[rows] = xp.astype(new["com_vel"], self.prev_com_vel.dtype)
@@ -340,6 +362,11 @@ class RecoveryEnv(VecEnv):
         if self.cfg.privileged_critic:
             privileged = privileged_observation(s, self._sim["qpos"][:, :2])
             critic = xp.concat([clean, xp.astype(privileged, xp.float32)], axis=1)
+            if self.terrain is not None:  # the ground around the base: the critic's alone
+                w, x, y, z = (s["quat"][:, i] for i in range(4))
+                yaw = np.arctan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+                ground = self.terrain.heights_around(self._sim["qpos"][:, :3], yaw)
+                critic = xp.concat([critic, xp.astype(ground, xp.float32)], axis=1)
         return TensorDict({"policy": self._to_torch(noisy), "critic": self._to_torch(critic)},
                           batch_size=[self.num_envs])
 
@@ -425,6 +452,8 @@ class RecoveryEnv(VecEnv):
         self.start_pose[ids], self.start_level[ids] = poses, levels
         self.randomizer.set_limits(ids, self.curriculum.torque_scale,
                                    self.curriculum.position_limit_factor)
+        if self.motors is not None:
+            self.motors.reset(ids)
         # start inside this episode's (scaled) joint ranges: the limit constraint would
         # kick a start beyond them (squatting: 14 rad/s within 60 ms at factor 0.9)
         lo, hi = self.randomizer.jnt_range[ids, 1:1 + self.num_actions].transpose(2, 0, 1)
@@ -434,6 +463,11 @@ class RecoveryEnv(VecEnv):
         self.qvel[ids] = qvel
         if settled.any():
             seat_on_ground(self.model, self.sims, ids[settled])
+        if self.terrain is not None:  # recorded rises start on flat ground
+            self.terrain.draw(ids, rng, flat=recorded)
+            seated = self.qpos[ids]
+            self.terrain.seat(ids, seated, rng)
+            self.qpos[ids] = seated
         self.randomizer.randomize(ids, rng, self.curriculum.difficulty)
         delay = rng.integers(self._delay_steps[0], self._delay_steps[1] + 1, n)
         self.delay_steps[ids] = delay
@@ -450,7 +484,9 @@ class RecoveryEnv(VecEnv):
         self.xfrc[ids] = 0.0
         self.sims.forward(ids)
         self.pushes.reset(ids, rng)
-        height = self.sims.bind("sensordata")[ids, self.layout.com][:, 2]
+        com = self.sims.bind("sensordata")[ids, self.layout.com]
+        height = com[:, 2] if self.terrain is None else \
+            com[:, 2] - self.terrain.ground(com[:, None, :2], ids)[:, 0]
         self.stuck.reset(ids, height)
         self.episode_length_buf[torch.from_numpy(ids)] = 0
         self.upright_time[ids] = 0.0
@@ -486,6 +522,9 @@ class RecoveryEnv(VecEnv):
             log[f"rise_level/{pose}"] = float(self.rises.level[pose])
             log[f"rise_rate/{pose}"] = self.rises.rate(pose)
         log["episode/final_com_height"] = torch.from_numpy(self._host["height"][ids])
+        if self.terrain is not None:
+            self.terrain.record(self._window_outcome()[ids])
+            log["curriculum/terrain_level"] = float(self.terrain.level)
         log["curriculum/assist_fraction"] = float(self.assist.fraction)
         log["curriculum/stage"] = float(self.curriculum.stage)
         log["curriculum/level"] = float(self.curriculum.level)

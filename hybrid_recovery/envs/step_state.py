@@ -62,7 +62,8 @@ class StepIndices:
 
 def read_step_state(sensordata: Array, xmat: Array, qpos: Array, qvel: Array,
                     actuator_force: Array, mass: Array, prev_momentum: Array,
-                    prev_com_vel: Array, at: StepIndices, dt: float) -> dict[str, Array]:
+                    prev_com_vel: Array, at: StepIndices, dt: float,
+                    ground: Array | None = None) -> dict[str, Array]:
     """The step's quantities of N envs, from their simulation arrays.
 
     Args:
@@ -71,11 +72,13 @@ def read_step_state(sensordata: Array, xmat: Array, qpos: Array, qvel: Array,
         mass: each env's robot mass m (N,) [kg].
         prev_momentum: [p_l; L] of the previous step (N, 6); prev_com_vel: ċ (N, 3).
         dt: the control step Δt [s] of the finite differences.
+        ground: the ground's height under each CoM (N,) [m]; None: z = 0 (flat ground).
 
     Returns:
         {name: array}: mass, com c (N, 3), com_vel ċ, com_acc c̈ (finite difference),
         lin p_l = m ċ, ang L (about the CoM), momentum [p_l; L] (N, 6), cp ξ (N, 2),
-        height h_c and height_vel ḣ_c (N,), net_force F_net and net_torque τ_net (N, 3),
+        height h_c (above the ground) and height_vel ḣ_c (N,), net_force F_net and
+        net_torque τ_net (N, 3),
         d_com (to the hull of all contacts) and d_cp (to the feet's) (N,) [m],
         torso_force, support_contacts (N,), foot_force (N, 2) [N], foot_up and shin_up
         (z of each sole's / shin's axis, N, 2), gyro (N, 3), quat (N, 4), gravity_b
@@ -86,14 +89,15 @@ def read_step_state(sensordata: Array, xmat: Array, qpos: Array, qvel: Array,
     com, vel = sensordata[:, lay.com], sensordata[:, lay.com_linvel]
     lin, ang = mass[:, None] * vel, sensordata[:, lay.com_angmom]
     force, torque = net_centroidal_wrench(lin, ang, prev_momentum[:, :3], prev_momentum[:, 3:], dt)
-    cp = capture_point(com[:, :2], vel[:, :2], xp.maximum(com[:, 2], 1e-3), g=GRAVITY)
+    height = com[:, 2] if ground is None else com[:, 2] - ground
+    cp = capture_point(com[:, :2], vel[:, :2], xp.maximum(height, 1e-3), g=GRAVITY)
     active, normal, points = read_contacts(sensordata, lay)
     active = active & (normal > CONTACT_FORCE_MIN)
     feet = at.feet_slots
     quat = sensordata[:, lay.quat]
     return dict(
         mass=mass, com=com, com_vel=vel, com_acc=(vel - prev_com_vel) / dt, lin=lin, ang=ang,
-        momentum=xp.concat([lin, ang], axis=1), cp=cp, height=com[:, 2],
+        momentum=xp.concat([lin, ang], axis=1), cp=cp, height=height,
         height_vel=vel[:, 2], net_force=force, net_torque=torque,
         d_com=signed_distance_batched(com[:, :2], points, active),
         d_cp=signed_distance_batched(cp, points[:, feet], active[:, feet]),
@@ -133,7 +137,8 @@ def reward_state(s: Mapping[str, Array], joint_range: Array, action: Array,
 
 def privileged_observation(s: Mapping[str, Array], base_xy: Array) -> Array:
     """The critic's balance quantities in the heading frame (yaw of the IMU), (N, 17):
-    CoM relative to the base (3), ċ (3), c̈ (3), p_l (3), L (3), ξ − c_xy (2).
+    CoM relative to the base horizontally and above the ground (3), ċ (3), c̈ (3), p_l (3),
+    L (3), ξ − c_xy (2).
 
     Args:
         s: :func:`read_step_state`'s quantities.
@@ -149,7 +154,7 @@ def privileged_observation(s: Mapping[str, Array], base_xy: Array) -> Array:
         return xp.concat([c * vx + si * vy, -si * vx + c * vy, v[:, 2:]], axis=1)
 
     com = s["com"]
-    rel = xp.concat([com[:, :2] - base_xy, com[:, 2:]], axis=1)
+    rel = xp.concat([com[:, :2] - base_xy, s["height"][:, None]], axis=1)
     cp_rel = s["cp"] - com[:, :2]
     return xp.concat([heading(rel), heading(s["com_vel"]), heading(s["com_acc"]),
                       heading(s["lin"]), heading(s["ang"]), heading(cp_rel)], axis=1)

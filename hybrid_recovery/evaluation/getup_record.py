@@ -30,8 +30,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from hybrid_recovery.evaluation.controllers import make_controller
-from hybrid_recovery.evaluation.getup_controllers import GroundHybridController
+from hybrid_recovery.controllers import HybridController, make
 from hybrid_recovery.evaluation.scenario import Scenario, check_pose
 from hybrid_recovery.evaluation.trial import run_trial
 from hybrid_recovery.files import atomic_path, refuse_existing
@@ -139,12 +138,12 @@ def record_rises(pose: str, episodes: int, out: str | Path, *, policy: str | Pat
         raise OSError(f"cannot write {out}: {err.strerror or err}") from None
     with recording_policy(policy) as path:
         spec = controller if ":" in controller or controller != "hybrid" else f"hybrid:{path}"
-        return _record(pose, episodes, out, duration, seed, make_controller(spec))
+        return _record(pose, episodes, out, duration, seed, make(spec))
 
 
 def _record(pose: str, episodes: int, out: Path, duration: float, seed: int, ctrl) -> dict:
     """The trials of :func:`record_rises` with ``ctrl``, written to ``out``."""
-    if isinstance(ctrl, GroundHybridController):  # a rise through the moves, not around them
+    if isinstance(ctrl, HybridController):  # a rise through the moves, not around them
         ctrl.config = dataclasses.replace(ctrl.config, policy_first=False)
     rows: dict[str, list] = {k: [] for k in ("qpos", "qvel", "time", "episode", "phase",
                                              "target", "goal", "contacts")}

@@ -12,13 +12,14 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import IO
 
+from hybrid_recovery.controllers import make, policy_path
 from hybrid_recovery.evaluation.contact import check_contact_preset
-from hybrid_recovery.evaluation.controllers import make_controller, policy_path
 from hybrid_recovery.evaluation.scenario import Scenario
 from hybrid_recovery.evaluation.trial import run_trial
 from hybrid_recovery.files import exclusive_lock, sha256_file
 from hybrid_recovery.policy.description import load_policy_description
 from hybrid_recovery.policy.onnx_policy import DESCRIPTION
+from hybrid_recovery.robot.actuator import check_actuator
 
 _WORKER: dict = {}
 HEADER_KEY = "__header__"
@@ -38,16 +39,17 @@ class EvaluationInterrupted(KeyboardInterrupt):
 
 def _init_worker(controller: str, model_path: str | None, contact: str,
                  ignore_sigint: bool = False, rotor_inertia: bool = False,
-                 stop_on_success: bool = False) -> None:
+                 stop_on_success: bool = False, actuator: str = "ideal") -> None:
     if ignore_sigint:  # the parent alone handles Ctrl-C (one line, not one per worker)
         signal.signal(signal.SIGINT, signal.SIG_IGN)
-    _WORKER.update(controller=make_controller(controller), model=model_path, contact=contact,
-                   rotor_inertia=rotor_inertia, stop=stop_on_success)
+    _WORKER.update(controller=make(controller), model=model_path, contact=contact,
+                   rotor_inertia=rotor_inertia, stop=stop_on_success, actuator=actuator)
 
 
 def _work(scenario: Scenario) -> dict:
     return run_trial(_WORKER["controller"], scenario, _WORKER["model"], _WORKER["contact"],
-                     rotor_inertia=_WORKER["rotor_inertia"], stop_on_success=_WORKER["stop"])
+                     rotor_inertia=_WORKER["rotor_inertia"], stop_on_success=_WORKER["stop"],
+                     actuator=_WORKER["actuator"])
 
 
 def completed_keys(results: Path) -> set[str]:
@@ -187,11 +189,12 @@ def header_provenance(header: dict) -> dict | None:
 def run_protocol(scenarios: list[Scenario], controller: str, results: str | Path,
                  model_path: str | None = None, contact: str = "default", workers: int = 2,
                  header: dict | None = None, progress: bool = True,
-                 rotor_inertia: bool = False, stop_on_success: bool = False) -> list[dict]:
+                 rotor_inertia: bool = False, stop_on_success: bool = False,
+                 actuator: str = "ideal") -> list[dict]:
     """Runs every scenario not yet in ``results`` and appends one JSON line per trial.
 
     With ``stop_on_success`` each trial ends once it has succeeded (see
-    :func:`run_trial`).
+    :func:`run_trial`); ``actuator`` is the motor model (``ideal`` or ``dc``).
 
     A killed run resumes where it stopped: finished trials are skipped by key. The first
     line of a new file is a header with the controller (and its policy's provenance), the
@@ -221,23 +224,27 @@ def run_protocol(scenarios: list[Scenario], controller: str, results: str | Path
     """
     results = Path(results)
     check_contact_preset(contact)
-    built = make_controller(controller)  # fail fast on a bad spec, before any file
+    check_actuator(actuator)
+    built = make(controller)  # fail fast on a bad spec, before any file
     meta = {"key": HEADER_KEY, "controller": controller, "model": model_path,
             "contact": contact, **(header or {})}
     if rotor_inertia:  # absent otherwise: older results files stay resumable
         meta["rotor_inertia"] = True
+    if actuator != "ideal":  # likewise
+        meta["actuator"] = actuator
     if (policy := policy_provenance(built)) is not None:
         meta["policy"] = policy
     if hashes := content_hashes(controller, model_path):
         meta[HASHES] = hashes
     with exclusive_lock(results, LOCK_HINT):
         return _run_locked(scenarios, controller, results, meta, model_path, contact,
-                           workers, progress, rotor_inertia, stop_on_success)
+                           workers, progress, rotor_inertia, stop_on_success, actuator)
 
 
 def _run_locked(scenarios: list[Scenario], controller: str, results: Path, meta: dict,
                 model_path: str | None, contact: str, workers: int, progress: bool,
-                rotor_inertia: bool, stop_on_success: bool) -> list[dict]:
+                rotor_inertia: bool, stop_on_success: bool,
+                actuator: str = "ideal") -> list[dict]:
     """:func:`run_protocol` once it holds the lock of ``results``."""
     if results.is_file():
         check_same_run(results, meta)
@@ -246,13 +253,13 @@ def _run_locked(scenarios: list[Scenario], controller: str, results: Path, meta:
     start, count, shown = time.time(), 0, 0.0
     if workers <= 1:
         _init_worker(controller, model_path, contact, rotor_inertia=rotor_inertia,
-                     stop_on_success=stop_on_success)
+                     stop_on_success=stop_on_success, actuator=actuator)
         rows: Iterator[dict] = map(_work, todo)
         pool = None
     else:
         pool = mp.get_context("fork").Pool(workers, _init_worker,
                                            (controller, model_path, contact, True,
-                                            rotor_inertia, stop_on_success))
+                                            rotor_inertia, stop_on_success, actuator))
         rows = pool.imap_unordered(_work, todo)
     with contextlib.ExitStack() as stack:
         out: IO[str] | None = None

@@ -10,6 +10,7 @@ import numpy as np
 
 from hybrid_recovery.envs.terminations import SUCCESS_TIME
 from hybrid_recovery.sim.initial_states import POSES
+from hybrid_recovery.sim.terrain import parse_terrain
 
 SWEEP_POSES = ("standing", "squatting", "kneeling", "supine", "sitting")
 SWEEP_FORCES = tuple(float(f) for f in range(0, 501, 50))
@@ -29,6 +30,12 @@ sweep's heights)."""
 PUSH_HEIGHT_RANGE = (-1.0, 1.0)
 """Push point heights a run accepts, relative to the CoM [m]: the robot's extent about its
 standing CoM (0.92 m above the soles, 0.85 m below the top of the head)."""
+MOTOR_STRENGTH_RANGE = (0.1, 2.0)
+"""Motor strengths a run accepts: the fraction of the rated torque τ_lim the motors give."""
+MAX_PAYLOAD = 60.0
+"""The largest torso payload a run accepts [kg] (the robot's own mass is about 67 kg)."""
+MAX_DELAY = 0.2
+"""The largest added actuation delay a run accepts [s]."""
 MAX_NOISE = 5.0
 """The largest initialisation-noise scale a run accepts: base tilts of ±1 rad, beyond
 which a named start pose is no longer that pose."""
@@ -49,6 +56,15 @@ class Scenario:
         noise: scale of the paper's initialisation noise (base ±0.05 m, ±0.2 rad, joints
             ±0.1 rad): 1 for recovery from randomised poses, 0.25 for push tests, whose
             robot starts standing still.
+        terrain: the ground (:func:`~hybrid_recovery.sim.terrain.parse_terrain`), e.g.
+            ``flat``, ``slope:10``, ``rough:5``, ``step:10``.
+        motor_strength: the motors' torque bound as a fraction of the rated ±τ_lim.
+        payload: a point mass at the torso's centre of mass [kg].
+        delay: added actuation delay [s]: every controller's output (targets or torques)
+            reaches the motors this long later, in whole physics steps.
+
+    The last three change the simulated robot only: each controller keeps the nominal
+    model (:mod:`hybrid_recovery.evaluation.off_nominal`).
     """
 
     pose: str
@@ -60,6 +76,10 @@ class Scenario:
     duration: float = 20.0
     seed: int = 0
     noise: float = 1.0
+    terrain: str = "flat"
+    motor_strength: float = 1.0
+    payload: float = 0.0
+    delay: float = 0.0
 
     def __post_init__(self) -> None:
         """Refuses numbers a trial cannot run on (a push far out of
@@ -77,8 +97,16 @@ class Scenario:
                                  f"got {getattr(self, name)}")
         if not (np.isfinite(self.duration) and self.duration > 0.0):
             raise ValueError(f"duration must be a finite number > 0, got {self.duration}")
+        for name, (low, high), unit in (("motor_strength", MOTOR_STRENGTH_RANGE, ""),
+                                        ("payload", (0.0, MAX_PAYLOAD), " kg"),
+                                        ("delay", (0.0, MAX_DELAY), " s")):
+            value = getattr(self, name)
+            if not (np.isfinite(value) and low <= value <= high):
+                raise ValueError(f"{name} must be a finite number from {low:g} to "
+                                 f"{high:g}{unit}, got {value}")
         if self.seed < 0:
             raise ValueError(f"seed must be an integer >= 0, got {self.seed}")
+        parse_terrain(self.terrain)
 
     @property
     def min_duration(self) -> float:
@@ -88,11 +116,20 @@ class Scenario:
         return end + SUCCESS_TIME
 
     @property
+    def off_nominal(self) -> bool:
+        """Weak motors, a payload or a delay."""
+        return self.motor_strength != 1.0 or self.payload != 0.0 or self.delay != 0.0
+
+    @property
     def key(self) -> str:
-        """A stable identifier (used to resume an interrupted protocol)."""
+        """A stable identifier (used to resume an interrupted protocol); the terrain and the
+        off-nominal robot are in it only where they are not nominal."""
+        terrain = "" if self.terrain == "flat" else f"|{self.terrain}"
+        robot = (f"|strength={self.motor_strength:g}|payload={self.payload:g}|"
+                 f"delay={self.delay:g}" if self.off_nominal else "")
         return (f"{self.pose}|{self.force:g}|{self.direction:.4f}|{self.height:g}|"
                 f"{self.push_time:g}|{self.push_duration:g}|{self.duration:g}|{self.seed}|"
-                f"{self.noise:g}")
+                f"{self.noise:g}{terrain}{robot}")
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -151,8 +188,27 @@ def pushes_protocol(trials_per_force: int = 1, seed: int = 0,
                        trials_per_force, seed, duration)
 
 
+TERRAIN_LADDER: tuple[str, ...] = ("flat", "slope:5", "slope:10", "slope:15", "rough:1",
+                                   "rough:3", "rough:5", "step:3", "step:6", "step:10")
+"""The terrain protocol's terrains: flat ground, then each kind at rising difficulty."""
+
+
+def terrain_protocol(trials_per_cell: int = 1, seed: int = 0,
+                     poses: tuple[str, ...] = SWEEP_POSES,
+                     terrains: tuple[str, ...] = TERRAIN_LADDER,
+                     duration: float = 20.0) -> list[Scenario]:
+    """Recoveries from each pose on each terrain, k trials per cell, no push; trial k of a
+    pose starts from the same state on every terrain (a paired comparison)."""
+    return [Scenario(pose, duration=duration, terrain=terrain, seed=int(
+                np.random.SeedSequence([seed, SWEEP_POSES.index(pose) if pose in SWEEP_POSES
+                                        else len(SWEEP_POSES) + sorted(POSES).index(pose),
+                                        k]).generate_state(1)[0]))
+            for terrain, pose, k in itertools.product(terrains, poses, range(trials_per_cell))]
+
+
 PROTOCOLS: dict[str, Callable[..., list[Scenario]]] = {
-    "poses": poses_protocol, "sweep": sweep_protocol, "pushes": pushes_protocol}
+    "poses": poses_protocol, "sweep": sweep_protocol, "pushes": pushes_protocol,
+    "terrain": terrain_protocol}
 """Protocol name → scenario generator."""
 
 

@@ -9,6 +9,7 @@ from hybrid_recovery.evaluation.scenario import Scenario
 from hybrid_recovery.evaluation.trial import RECORD_DT, run_trial
 from hybrid_recovery.files import atomic_path
 from hybrid_recovery.sim.divergence import SimulationDiverged
+from hybrid_recovery.sim.terrain import parse_terrain
 
 
 def render_trial(controller, scenario: Scenario, path: str | Path, seconds: float | None = None,
@@ -26,7 +27,7 @@ def render_trial(controller, scenario: Scenario, path: str | Path, seconds: floa
     from hybrid_recovery.sim.render import BalanceRenderer, balance_overlay
 
     every = max(1, round(1.0 / (fps * RECORD_DT)))
-    renderer = BalanceRenderer(model_path)
+    renderer = BalanceRenderer(model_path, terrain=parse_terrain(scenario.terrain))
     frames: list = []
     count = [0]
 

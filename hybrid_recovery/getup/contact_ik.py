@@ -122,8 +122,19 @@ class ContactIk:
             self.robot.set_joint_limits(name, float(a), float(b))
         self._qadr = joint_addresses(model)[0]
 
-    def solve(self, keyframe: ContactKeyframe, iterations: int = 300) -> IkResult:
-        """Places ``keyframe``'s contacts on the floor near its posture."""
+    def solve(self, keyframe: ContactKeyframe, iterations: int = 300,
+              com_over: tuple[str, ...] = ()) -> IkResult:
+        """Places ``keyframe``'s contacts on the floor near its posture.
+
+        Args:
+            keyframe: The posture, base orientation and floor contacts.
+            iterations: Solver iterations.
+            com_over: Contacts (of ``keyframe.contacts``) over the mean of whose
+                middles (each contact's load-bearing points averaged) the CoM's ground
+                projection is placed, once the contacts have landed and are pinned where
+                they landed (a soft task below the contacts' weight); empty: the CoM is
+                free.
+        """
         robot = self.robot
         posture = np.clip(keyframe.posture, self.lo, self.hi)
         for name, q in zip(constants.JOINT_NAMES, posture, strict=True):
@@ -140,12 +151,14 @@ class ContactIk:
         solver = placo.KinematicsSolver(robot)
         solver.enable_joint_limits(True)
         solver.enable_velocity_limits(False)
+        tasks = {}
         for name in keyframe.contacts:
             radius = FLOOR_CONTACTS[name].radius
             for k in points[name]:
                 task = solver.add_position_task(f"{name}_{k}", np.array([0.0, 0.0, radius]))
                 task.mask.set_axises("z")
                 task.configure(f"{name}_{k}", "soft", 1e4)
+                tasks[f"{name}_{k}"] = task
         joints = solver.add_joints_task()
         joints.set_joints({n: float(q) for n, q in zip(constants.JOINT_NAMES, posture,
                                                         strict=True)})
@@ -154,6 +167,19 @@ class ContactIk:
         for _ in range(iterations):
             solver.solve(True)
             robot.update_kinematics()
+        if com_over:  # pin the contacts where they landed, then carry the CoM over
+            for frame, task in tasks.items():
+                task.target_world = robot.get_T_world_frame(frame)[:3, 3] * [1, 1, 0] + [
+                    0.0, 0.0, float(task.target_world[2])]
+                task.mask.set_axises("xyz")
+            com = solver.add_com_task(np.mean(
+                [np.mean([robot.get_T_world_frame(f"{name}_{k}")[:3, 3] for k in points[name]],
+                         axis=0) for name in com_over], axis=0))
+            com.mask.set_axises("xy")
+            com.configure("com", "soft", 1e3)
+            for _ in range(iterations):
+                solver.solve(True)
+                robot.update_kinematics()
         return self._result(keyframe, points)
 
     def _result(self, keyframe: ContactKeyframe, points: dict[str, list[int]]) -> IkResult:

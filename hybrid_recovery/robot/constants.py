@@ -54,6 +54,14 @@ _ARM_EFFORT = (40.0, 40.0, 18.0, 18.0, 19.0, 19.0, 19.0)
 EFFORT_LIMITS = np.array(_LEG_EFFORT * 2 + (200.0,) + _ARM_EFFORT * 2)
 """Hardware effort limits τ_max per joint [N·m], shape (27,)."""
 
+_LEG_VELOCITY = (23.0, 23.0, 23.0, 14.0, 9.0, 9.0)
+_ARM_VELOCITY = (9.0, 9.0, 20.0, 20.0, 31.4, 31.4, 31.4)
+VELOCITY_LIMITS = np.array(_LEG_VELOCITY * 2 + (23.0,) + _ARM_VELOCITY * 2)
+"""Manufacturer's joint velocity limits ω_max per joint [rad/s], shape (27,): the
+``<limit velocity=...>`` of each joint in Unitree's ``h1_2_handless.urdf`` (hips and
+waist 23, knees 14, ankles 9, shoulder pitch/roll 9, shoulder yaw and elbow 20, wrists
+31.4). The DC motor model (:mod:`hybrid_recovery.robot.actuator`) reads them."""
+
 _LEG_KP = (200.0, 300.0, 200.0, 600.0, 600.0, 150.0)
 _LEG_KD = (5.0, 5.0, 5.0, 8.0, 6.0, 4.0)
 _ARM_KP = (120.0, 120.0, 80.0, 80.0, 40.0, 40.0, 40.0)
@@ -125,6 +133,7 @@ MIRROR_SIGN = np.array(_LEG_SIGN * 2 + (-1.0,) + _ARM_SIGN * 2)
 
 for _name, _arr in (
     ("EFFORT_LIMITS", EFFORT_LIMITS),
+    ("VELOCITY_LIMITS", VELOCITY_LIMITS),
     ("KP", KP),
     ("KD", KD),
     ("DEFAULT_JOINT_POS", DEFAULT_JOINT_POS),

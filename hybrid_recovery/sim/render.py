@@ -33,6 +33,8 @@ from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.mjcf import FLOOR_NAME, load_spec
 from hybrid_recovery.sim.gl_backend import gl_context_works, loaded_backend
 from hybrid_recovery.sim.software_renderer import SoftwareRenderer
+from hybrid_recovery.sim.terrain import Terrain
+from hybrid_recovery.sim.terrain_model import add_terrain
 
 ROBOT_ALPHA = 0.55
 """Opacity of the robot's geoms in the video."""
@@ -188,10 +190,11 @@ def _polygon(scene: mujoco.MjvScene, polygon: np.ndarray, height: float, width: 
 
 
 def render_model(model_path: str | Path | None = None, width: int = 640,
-                 height: int = 480) -> mujoco.MjModel:
-    """The robot (translucent) with a checkered floor, a brighter headlight and an
-    offscreen buffer of at least ``width`` × ``height``; its qpos layout is the env's."""
+                 height: int = 480, terrain: Terrain | None = None) -> mujoco.MjModel:
+    """The robot (translucent) with a checkered floor (or ``terrain``), a brighter headlight
+    and an offscreen buffer of at least ``width`` × ``height``; its qpos layout is the env's."""
     spec = load_spec(model_path, floor=True, actuators=True)
+    add_terrain(spec, terrain or Terrain())
     spec.add_texture(name="hr_grid", type=mujoco.mjtTexture.mjTEXTURE_2D,
                      builtin=mujoco.mjtBuiltin.mjBUILTIN_CHECKER, rgb1=[0.28, 0.31, 0.35],
                      rgb2=[0.38, 0.41, 0.45], width=300, height=300,
@@ -246,11 +249,11 @@ class BalanceRenderer:
     def __init__(self, model_path: str | Path | None = None, width: int = 640,
                  height: int = 480, distance: float = 3.2, azimuth: float = 135.0,
                  elevation: float = -15.0, follow_time: float = 0.3,
-                 backend: str = "auto") -> None:
+                 backend: str = "auto", terrain: Terrain | None = None) -> None:
         global _gl_failed
         if backend not in BACKENDS:
             raise ValueError(f"backend must be one of {list(BACKENDS)}, got {backend!r}")
-        self.model = render_model(model_path, width, height)
+        self.model = render_model(model_path, width, height, terrain)
         self.data = mujoco.MjData(self.model)
         use_gl = backend == "opengl" or (backend == "auto" and gl_context_works()
                                          and not _gl_failed)

@@ -24,6 +24,8 @@ from array_api_compat import array_namespace, device
 from hybrid_recovery.dynamics.arrays import Array
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.mjcf import FLOOR_NAME, load_spec
+from hybrid_recovery.sim.terrain import Terrain
+from hybrid_recovery.sim.terrain_model import add_terrain_slots
 
 CONTACT_GROUPS: dict[str, tuple[tuple[str, str, int], ...]] = {
     # group: ((kind, target, slots), ...); kind "body" matches all geoms of the body.
@@ -64,7 +66,8 @@ class SensorLayout:
 
 
 def build_scene(path: str | Path | None = None, timestep: float = 0.005,
-                delay_samples: int = 0, rotor_inertia: bool = False):
+                delay_samples: int = 0, rotor_inertia: bool = False,
+                rough: tuple[Terrain, ...] = (), step_height: float = 0.0):
     """Compiles the robot with floor, actuators and the MDP's sensors.
 
     Args:
@@ -76,12 +79,16 @@ def build_scene(path: str | Path | None = None, timestep: float = 0.005,
             set per simulation.
         rotor_inertia: Give the joints the project's rotor inertia (armature) [kg·m²],
             for a file without it (see :func:`hybrid_recovery.robot.mjcf.load_spec`).
+        rough, step_height: with a ``step_height`` > 0 [m], the terrain slots of
+            :func:`~hybrid_recovery.sim.terrain_model.add_terrain_slots`; none otherwise.
 
     Returns:
         (model, layout): the compiled ``mujoco.MjModel`` and its :class:`SensorLayout`.
     """
     spec = load_spec(path, floor=True, actuators=True, timestep=timestep,
                      rotor_inertia=rotor_inertia)
+    if step_height > 0:
+        add_terrain_slots(spec, rough, step_height)
     if delay_samples > 0:
         for actuator in spec.actuators:
             actuator.nsample, actuator.interp, actuator.delay = delay_samples, 0, 0.0

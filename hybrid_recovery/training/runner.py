@@ -131,6 +131,8 @@ class RecoveryRunner(OnPolicyRunner):
                           "teacher": self.teacher.state_dict() if self.teacher else None,
                           "env_steps": env_steps, "compute_time_s": self.compute_s,
                           "segments": self.segments}
+        if (terrain := getattr(self.env, "terrain", None)) is not None:  # absent without
+            saved["infos"]["terrain"] = terrain.state_dict()
         atomic_save(saved, path)
         run = Path(path).parent
         atomic_save(saved, run / LATEST)
@@ -141,7 +143,7 @@ class RecoveryRunner(OnPolicyRunner):
 
     def load_run(self, path: Path) -> None:
         """Resumes from a checkpoint: weights, optimiser, normalisers, curriculum, bridge and
-        rise levels, iteration."""
+        rise levels, terrain level, iteration."""
         data = load_checkpoint(path)
         variant = data.get("infos", {}).get("meta", {}).get("variant")
         check_state_shapes(data["actor_state_dict"], self.alg.actor.state_dict(), "actor",
@@ -157,6 +159,9 @@ class RecoveryRunner(OnPolicyRunner):
             self.env.bridge.load_state_dict(data["infos"]["bridge"])
         if "rises" in data["infos"]:
             self.env.rises.load_state_dict(data["infos"]["rises"])
+        if (terrain := getattr(self.env, "terrain", None)) is not None \
+                and data["infos"].get("terrain"):
+            terrain.load_state_dict(data["infos"]["terrain"])
         if self.teacher and data["infos"].get("teacher"):
             self.teacher.load_state_dict(data["infos"]["teacher"])
         self.compute_s = data["infos"].get("compute_time_s")

@@ -1,0 +1,91 @@
+"""The rise from a crouch: CoM height and posture references along a minimum-jerk profile.
+
+With both soles on the ground a crouch is the QP's home ground: the capture-point law
+keeps ξ in the feet's polygon (stepping where it must) while the CoM height reference
+h_ref(t) and the posture reference q_ref(t) go from the crouch (h₀, q₀) to the standing
+pose (h*, q*) along one profile s(t):
+
+    s(τ) = 10τ³ − 15τ⁴ + 6τ⁵,   τ = (t − t₀)/T ∈ [0, 1]
+    h_ref(t) = h₀ + s (h* − h₀),   q_ref(t) = q₀ + s (q* − q₀)
+
+(zero velocity and acceleration at both ends). :class:`~.balance_controller.
+BalanceController` tracks them (:meth:`~.balance_controller.BalanceController.rise`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from hybrid_recovery.control.robot_state import RobotState
+from hybrid_recovery.robot import constants
+
+
+def min_jerk(tau: float) -> float:
+    """s(τ) = 10τ³ − 15τ⁴ + 6τ⁵ for τ clipped to [0, 1] [-]."""
+    tau = min(max(tau, 0.0), 1.0)
+    return tau**3 * (10.0 - 15.0 * tau + 6.0 * tau * tau)
+
+
+def standing_com_height(model: mujoco.MjModel) -> float:
+    """h*: the CoM height above the soles of the default pose q* standing upright [m].
+
+    Computed on ``model`` (upright pelvis, joints at ``constants.DEFAULT_JOINT_POS``) as
+    the pelvis subtree CoM height minus the mean height of the sole sites
+    ``left_foot`` and ``right_foot``.
+    """
+    data = mujoco.MjData(model)
+    data.qpos[3] = 1.0  # identity quaternion of the free joint
+    data.qpos[model.jnt_qposadr[1:1 + constants.NUM_JOINTS]] = constants.DEFAULT_JOINT_POS
+    mujoco.mj_kinematics(model, data)
+    mujoco.mj_comPos(model, data)
+    soles = [data.site(f"{side}_foot").xpos[2] for side in ("left", "right")]
+    return float(data.subtree_com[model.body("pelvis").id, 2] - np.mean(soles))
+
+
+def crouched_on_feet(state: RobotState, max_sole_height: float, min_com_height: float,
+                     max_tilt: float) -> bool:
+    """Whether a rise can start: both sole centres within ``max_sole_height`` [m] of the
+    ground, no other part of the robot on it, the CoM at least ``min_com_height`` [m] up
+    and the pelvis tilted less than ``max_tilt`` [rad] from vertical."""
+    tilt = float(np.arccos(np.clip(state.pelvis_rotation[2, 2], -1.0, 1.0)))
+    return (all(foot.position[2] <= max_sole_height for foot in state.feet)
+            and not state.non_foot_contact and float(state.com[2]) >= min_com_height
+            and tilt <= max_tilt)
+
+
+@dataclass(frozen=True)
+class RiseTrajectory:
+    """h_ref(t) and q_ref(t) of one rise (module docstring).
+
+    Attributes:
+        start: t₀ [s].
+        duration: T [s].
+        height: (h₀, h*) [m].
+        posture: (q₀, q*), each shape (27,) [rad], motor order.
+    """
+
+    start: float
+    duration: float
+    height: tuple[float, float]
+    posture: tuple[np.ndarray, np.ndarray]
+
+    def phase(self, t: float) -> float:
+        """s(t) [-]."""
+        return min_jerk((t - self.start) / self.duration)
+
+    def done(self, t: float) -> bool:
+        """Whether t ≥ t₀ + T."""
+        return t >= self.start + self.duration - 1e-9
+
+    def height_ref(self, t: float) -> float:
+        """h_ref(t) [m]."""
+        low, high = self.height
+        return low + self.phase(t) * (high - low)
+
+    def posture_ref(self, t: float) -> np.ndarray:
+        """q_ref(t), shape (27,) [rad]."""
+        start, end = self.posture
+        return start + self.phase(t) * (end - start)

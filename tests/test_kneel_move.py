@@ -1,0 +1,137 @@
+"""The kneel move: its planned keyframes, the kneel test, a kneel that reaches the squat
+and one that ends standing."""
+
+from __future__ import annotations
+
+import mujoco
+import numpy as np
+import pytest
+
+from hybrid_recovery.control import BalanceController
+from hybrid_recovery.controllers.model import ModelController
+from hybrid_recovery.dynamics.robot_model import RobotModel
+from hybrid_recovery.evaluation.scenario import Scenario
+from hybrid_recovery.evaluation.trial import eval_model, run_trial, start_state
+from hybrid_recovery.getup.contact_map import floor_contacts
+from hybrid_recovery.getup.contacts import FLOOR_CONTACTS, contact_points_world
+from hybrid_recovery.getup.feasibility import static_feasibility
+from hybrid_recovery.getup.kneel_move import (
+    CROUCHED,
+    FAILED,
+    KneelMove,
+    KneelMoveConfig,
+    is_kneeling,
+)
+from hybrid_recovery.getup.to_squat import (
+    TO_SQUAT_KEYFRAMES,
+    TO_SQUAT_STAGES,
+    ToSquatConfig,
+    closest_in_polygon,
+    plan_keyframes,
+)
+from hybrid_recovery.robot.limits import SafetyLimits
+from hybrid_recovery.robot.mjcf import joint_addresses
+from hybrid_recovery.sim.terrain import parse_terrain
+from hybrid_recovery.sim.terrain_model import seat_on_terrain
+
+
+@pytest.fixture(scope="module")
+def model() -> mujoco.MjModel:
+    return eval_model(None, 0.002, True, "default")
+
+
+@pytest.fixture(scope="module")
+def keyframes(model) -> dict[str, np.ndarray]:
+    return plan_keyframes(model)
+
+
+def _seated(model: mujoco.MjModel, pose: str, seed: int) -> mujoco.MjData:
+    """The evaluation's start of ``pose`` (seed), seated on the floor as in run_trial."""
+    data = mujoco.MjData(model)
+    data.qpos[:] = start_state(Scenario(pose=pose, seed=seed), None, "default", 0.002)
+    seat_on_terrain(model, data, parse_terrain("flat"))
+    mujoco.mj_forward(model, data)
+    return data
+
+
+def test_planned_keyframes_hold_statically_within_the_limits(model, keyframes):
+    """Each keyframe: contacts on the floor, joints inside 0.9× their ranges, and held
+    still on its contacts at μ 0.7 within 1× the effort limits."""
+    robot = RobotModel(model)
+    lo, hi = SafetyLimits.from_model(model).q_ref_bounds(0.9)
+    qadr = joint_addresses(model)[0]
+    for name, (seed, _) in TO_SQUAT_KEYFRAMES.items():
+        qpos = keyframes[name]
+        q = qpos[qadr]
+        assert np.all(q >= lo - 1e-6) and np.all(q <= hi + 1e-6), name
+        data = mujoco.MjData(model)
+        data.qpos[:] = qpos
+        mujoco.mj_kinematics(model, data)
+        for contact in seed.contacts:
+            c = FLOOR_CONTACTS[contact]
+            body = model.body(c.body).id
+            low = contact_points_world(c, data.xpos[body], data.xmat[body].reshape(3, 3))
+            assert abs(float(low[:, 2].min())) < 0.01, (name, contact)
+        check = static_feasibility(robot, qpos, seed.contacts)
+        assert check.feasible, (name, check.reason)
+        assert check.worst_ratio < 0.5, name
+
+
+def test_stages_name_known_keyframes_and_contacts():
+    for stage in TO_SQUAT_STAGES:
+        assert stage.keyframe in TO_SQUAT_KEYFRAMES
+        assert set(stage.support) <= set(FLOOR_CONTACTS)
+        assert set(stage.contacts) <= set(FLOOR_CONTACTS)
+    assert TO_SQUAT_STAGES[-1].contacts == ("left_foot", "right_foot")
+
+
+def test_closest_point_in_a_polygon():
+    square = np.array([[0.0, 0.0], [1.0, 0.0], [1.0, 1.0], [0.0, 1.0]])
+    np.testing.assert_allclose(closest_in_polygon(square, [0.3, 0.6]), [0.3, 0.6])
+    np.testing.assert_allclose(closest_in_polygon(square, [2.0, 0.5]), [1.0, 0.5])
+    np.testing.assert_allclose(closest_in_polygon(square, [-1.0, -2.0]), [0.0, 0.0])
+    segment = np.array([[0.0, 0.0], [0.0, 2.0], [0.0, 1.0]])  # collinear
+    np.testing.assert_allclose(closest_in_polygon(segment, [0.5, 1.5]), [0.0, 1.5])
+    np.testing.assert_allclose(closest_in_polygon(square[:1], [3.0, 3.0]), [0.0, 0.0])
+
+
+def test_configs_are_checked():
+    with pytest.raises(ValueError,
+                       match=r"ToSquatConfig.support_depth must be >= 0 and <= 1, got 2.0"):
+        ToSquatConfig(support_depth=2.0)
+    with pytest.raises(ValueError, match=r"KneelMoveConfig.bow_time must be > 0, got 0.0"):
+        KneelMoveConfig(bow_time=0.0)
+
+
+def test_is_kneeling_tells_the_kneel_from_the_other_starts(model):
+    for seed in range(3):
+        assert is_kneeling(model, _seated(model, "kneeling", seed)), seed
+    for pose in ("standing", "squatting", "sitting", "supine", "prone"):
+        assert not is_kneeling(model, _seated(model, pose, 0)), pose
+
+
+def test_kneel_move_reaches_a_squat_the_rise_starts_from(model):
+    """From the evaluation's kneeling start (seed 1, seated as in run_trial): bow, push-up
+    and the stages to the squat end on both feet, nothing else on the floor, where the
+    QP's rise accepts the crouch."""
+    data = _seated(model, "kneeling", 1)
+    move = KneelMove()
+    move.reset(model, data)
+    while move.phase not in (CROUCHED, FAILED) and data.time < 16.0:
+        data.ctrl[:] = move(model, data)
+        mujoco.mj_step(model, data)
+    assert [phase for _, phase in move.log] == ["bow", "push_up", "to_squat", "crouched"]
+    assert set(floor_contacts(model, data)[0]) == {"left_foot", "right_foot"}
+    assert BalanceController().rise(model, data)
+
+
+@pytest.mark.slow
+def test_kneel_ends_standing():
+    """The model controller from the same start: the paper's criterion (CoM above 0.85 m
+    held 1 s) is met after the kneel move and the rise (~16 s simulated)."""
+    controller = ModelController()
+    result = run_trial(controller, Scenario(pose="kneeling", seed=1), stop_on_success=True)
+    info = result["controller_info"]
+    assert [phase for _, phase in info["kneel"]] == ["bow", "push_up", "to_squat", "crouched"]
+    assert [kind for _, kind, _ in info["rise"]] == ["rise", "risen"]
+    assert result["success"] and result["recovery_time"] < 20.0
