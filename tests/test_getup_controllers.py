@@ -22,7 +22,7 @@ from hybrid_recovery.robot import constants
 from hybrid_recovery.sim.initial_states import seat_single
 
 
-def test_model_controller_moves_to_knee_chest_pushes_up_and_holds_hands_and_knees():
+def test_model_controller_moves_to_knee_chest_pushes_up_and_goes_on_to_the_squat():
     from hybrid_recovery.getup.push_up import on_hands_and_knees
 
     seen: list[tuple[float, bool]] = []
@@ -33,15 +33,16 @@ def test_model_controller_moves_to_knee_chest_pushes_up_and_holds_hands_and_knee
     assert info["ground_status"] == "arrived" and info["ground_state"] == "knee_chest"
     assert [m for _, _, m in info["moves"]] == ["tuck from prone", "in knee_chest"]
     # one push-up, started once knee-chest was reached, ended on hands and knees, inside
-    # the effort limits throughout (the QP's torque rows, not a clip); then held there
+    # the effort limits throughout (the QP's torque rows, not a clip)
     [push_up] = info["push_ups"]
     assert push_up["start"] >= info["moves"][-1][0] and push_up["hands_and_knees"]
     assert 0.0 < push_up["worst_torque_ratio"] <= 1.0 + 1e-9
-    assert info["final_mode"] == "hold" and info["on_hands_and_knees"]
-    # on hands and knees from the check on, still at the end, seconds later
+    # from the check on, hands and knees → squat (the to-squat still under way at 15 s)
     done = push_up["start"] + 3.5
-    assert done + 4.0 < seen[-1][0] and all(ok for t, ok in seen if t >= done + 0.02)
-    # no model-based rise from there: it does not stand, and it says so by not succeeding
+    [squat] = info["squats"]
+    assert squat["start"] == pytest.approx(done, abs=0.01) and info["final_mode"] == "to_squat"
+    assert all(ok for t, ok in seen if done + 0.02 <= t <= squat["start"] + 0.5)
+    assert any(not ok for t, ok in seen if t > squat["start"] + 1.0)  # a foot comes forward
     assert not row["success"] and not row["not_applicable"]
     assert row["peak_torque"] <= 300.0 + 1e-9
 
@@ -56,8 +57,9 @@ def test_model_controller_reaches_hands_and_knees_on_the_manufacturer_meshes():
     info = row["controller_info"]
     assert [m for _, _, m in info["moves"]] == ["tuck from prone", "in knee_chest"]
     [push_up] = info["push_ups"]
-    assert push_up["hands_and_knees"] and info["final_mode"] == "hold"
-    assert info["on_hands_and_knees"] and not row["success"]
+    [squat] = info["squats"]
+    assert push_up["hands_and_knees"] and info["final_mode"] == "to_squat"
+    assert squat["start"] >= push_up["start"] + 3.5 - 0.01 and not row["success"]
 
 
 def test_model_controller_re_plans_after_a_push_up_that_misses(monkeypatch):

@@ -157,7 +157,7 @@ class ModelController:
         each push-up's start,
         whether it ended on hands and knees and its worst torque ratio; while holding,
         whether the robot was on hands and knees at the last check (every 0.25 s)."""
-        ground = self.mode not in (QP, KNEEL, TO_SQUAT)
+        ground = self.mode not in (QP, KNEEL)
         rises = [e for e in self.balance.events if e.kind in ("rise", "risen", "rise_failed")]
         return {"final_mode": self.mode, "qp_went_down": self.balance.went_down,
                 "kneel": list(self.kneel.log),
