@@ -7,20 +7,9 @@ from __future__ import annotations
 import json
 
 import pytest
+from test_cli_inputs import _refused
 
 from hybrid_recovery.cli.main import main
-
-
-def _refused(capsys, argv: list[str]) -> str:
-    code: object
-    try:
-        code = main(argv)
-    except SystemExit as exit_:
-        code = exit_.code
-    assert code == 2
-    captured = capsys.readouterr()
-    assert captured.out == "" and "Traceback" not in captured.err
-    return captured.err
 
 
 @pytest.mark.parametrize(("argv", "message"), [
