@@ -242,11 +242,17 @@ def test_bad_controller_and_pose_are_refused():
 
 
 def test_demo_runs_and_writes_a_report(tmp_path):
-    from hybrid_recovery.demo.comparison import run_demo
+    """Three controllers side by side (the model-based ground moves, ~2 min of QPs, are
+    tested in ``test_getup_controllers.py``); by default every one the machine has."""
+    from hybrid_recovery.demo.comparison import available_controllers, run_demo
 
-    report = run_demo(tmp_path, video=False)
+    report = run_demo(tmp_path, video=False, controllers=["zero", "qp", "learned"])
     text = report.read_text()
     assert "push 200 N forward" in text and "stand up from supine" in text
+    for label in ("PD hold (zero action)", "QP baseline", "learned policy"):
+        assert label in text
+    specs, notes = available_controllers()
+    assert specs == ["zero", "qp", "model", "learned", "hybrid"] and notes == []
 
 
 def test_results_record_the_policy_and_the_report_compares_budgets(tmp_path):
