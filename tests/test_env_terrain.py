@@ -24,14 +24,18 @@ def env():
     cfg.num_envs, cfg.num_threads, cfg.seed = NUM_ENVS, 1, 0
     cfg.curriculum.enabled = False
     cfg.terrain.enabled, cfg.terrain.window = True, 4
+    cfg.terrain.start_level = 1.0  # the hardest tiles
     cfg.pose_weights = {"supine": 1.0, "sitting": 1.0, "standing": 1.0}
     env = RecoveryEnv(cfg)
-    env.terrain.level = 1.0  # the hardest tiles
     env._reset(np.arange(NUM_ENVS))
     env._read_state()
     env._read_state(np.arange(NUM_ENVS))
     env._obs = env._observations()
     return env
+
+
+def test_a_new_run_starts_at_the_configured_level(env):
+    assert env.terrain.level == 1.0 and default_config().terrain.start_level == 0.0
 
 
 def test_each_episode_gets_its_own_terrain(env):
@@ -124,6 +128,9 @@ def test_bad_terrain_settings_are_refused_in_one_line():
     with pytest.raises(ValueError) as info:
         TerrainConfig(max_slope=60.0)
     assert str(info.value) == "TerrainConfig.max_slope must be > 0 and <= 45, got 60.0"
+    with pytest.raises(ValueError) as info:
+        TerrainConfig(start_level=1.5)
+    assert str(info.value) == "TerrainConfig.start_level must be >= 0 and <= 1, got 1.5"
 
 
 def test_the_level_round_trips_through_a_checkpoint_state(env):

@@ -311,9 +311,10 @@ class TerrainConfig:
 
     Each episode draws its ground by ``weights``: flat, a slope (any heading), rough ground
     or a step edge through the start, its size ``level`` × the largest × U(0.5, 1) (rough:
-    the nearest of ``rough_levels`` fields of max_rough · k / K). The level starts at 0
-    and rises by ``step`` each time the outcome rate (``curriculum.advance_on``) of the
-    last ``window`` episodes reaches ``advance``, falls below ``retreat``. The critic sees
+    the nearest of ``rough_levels`` fields of max_rough · k / K). The level starts at
+    ``start_level`` and rises by ``step`` each time the outcome rate
+    (``curriculum.advance_on``) of the last ``window`` episodes reaches ``advance``, falls
+    below ``retreat``. The critic sees
     the ground's heights on a ``height_grid`` × ``height_grid`` grid ``height_spacing``
     apart around the base (heading frame) below the base; the actor sees none.
     """
@@ -333,6 +334,8 @@ class TerrainConfig:
     retreat: float = 0.3
     window: int = 256
     step: float = 0.1
+    start_level: float = 0.0
+    """The level of a new run (a resumed one keeps its own) [-]."""
     height_grid: int = 7
     height_spacing: float = 0.3
     """[m]."""

@@ -126,6 +126,7 @@ RANGES: dict[str, Range] = {
     "terrain.retreat": UNIT,
     "terrain.window": (1, True, math.inf),
     "terrain.step": (0.0, False, 1.0),
+    "terrain.start_level": UNIT,
     "terrain.height_grid": (1, True, 51),
     "terrain.height_spacing": POSITIVE,
     "ppo.clip_param": (0.0, False, math.inf),

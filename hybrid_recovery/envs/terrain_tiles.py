@@ -71,7 +71,7 @@ class TerrainTiles:
         """Step heights [m], (N,)."""
         self.rough_index = np.full(n, -1)
         """Index into :attr:`rough` of each rough ground (−1: none), (N,)."""
-        self.level = 0.0
+        self.level = cfg.start_level
         self.window = OutcomeWindow(cfg.window)
         self._scratch = mujoco.MjData(model)
         names = [k for k in KINDS if cfg.weights.get(k, 0.0) > 0]
