@@ -314,9 +314,9 @@ class TerrainConfig:
     the nearest of ``rough_levels`` fields of max_rough · k / K). The level starts at
     ``start_level`` and rises by ``step`` each time the outcome rate
     (``curriculum.advance_on``) of the last ``window`` episodes reaches ``advance``, falls
-    below ``retreat``. The critic sees
-    the ground's heights on a ``height_grid`` × ``height_grid`` grid ``height_spacing``
-    apart around the base (heading frame) below the base; the actor sees none.
+    below ``retreat``. The critic sees the ground's heights on a ``height_grid`` ×
+    ``height_grid`` grid ``height_spacing`` apart around the base (heading frame) below the
+    base; the actor sees none.
     """
 
     enabled: bool = False
