@@ -5,7 +5,7 @@ exported checkpoint (``hybrid-recovery export RUN --checkpoint …``): the heade
 ``results.jsonl`` names the checkpoint's iteration and env steps. Arms are
 ``LABEL=DIR[,DIR …]``, one line each; per pose it draws the success rate with its 95 %
 Wilson interval against env steps since ``--origin`` (an eval directory of the checkpoint
-the recorded rises came in at), so that the old lineage's checkpoints lie left of 0, and
+the recorded rises came in at; a run's iteration 0 for a run from nothing), so that the old lineage's checkpoints lie left of 0, and
 dotted lines at the milestones (50 %, 80 %, the paper's 93.4 %). Prints a Markdown table.
 
     python research/plot_deployment_pace.py old=results/shipped,results/12650 \\
@@ -82,7 +82,8 @@ def main() -> None:
             ax.axhline(level, color="grey", ls=":", lw=0.8)
         ax.axvline(0.0, color="grey", ls="--", lw=0.8)
         ax.set_title(pose)
-        ax.set_xlabel("M env steps since the recorded rises came in")
+        ax.set_xlabel("M env steps from the first iteration" if origin == 0
+                      else "M env steps since the recorded rises came in")
         ax.set_ylabel("stand-up rate at deployment (95 % CI)")
         ax.set_ylim(-0.02, 1.02)
         ax.grid(alpha=0.3)

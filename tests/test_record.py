@@ -82,6 +82,9 @@ def test_curves_can_stop_at_the_exported_checkpoint(tmp_path, monkeypatch):
     drawn.clear()
     plot_curves(tmp_path, tmp_path / "upto.png", upto=69)
     assert drawn and max(drawn) == 69
+    drawn.clear()  # an early checkpoint: the reward and the pose rates start at 50
+    plot_curves(tmp_path, tmp_path / "early.png", upto=40)
+    assert len(drawn) == 1 and max(drawn) == 40
 
 
 def test_ablation_metrics_and_curves_compare_runs(tmp_path):

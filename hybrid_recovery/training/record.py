@@ -250,9 +250,9 @@ def plot_curves(runs: str | Path | Mapping[str, Lineage], out: str | Path,
         run_dir = lineage[-1]
         scalars = read_lineage(lineage)
         lo, hi = -np.inf if since is None else since, np.inf if upto is None else upto
-        scalars = {tag: (steps[(steps >= lo) & (steps <= hi)],
-                         values[(steps >= lo) & (steps <= hi)])
-                   for tag, (steps, values) in scalars.items()}
+        kept = {tag: (steps >= lo) & (steps <= hi) for tag, (steps, _) in scalars.items()}
+        scalars = {tag: (steps[kept[tag]], values[kept[tag]])  # tags logged in the window
+                   for tag, (steps, values) in scalars.items() if kept[tag].any()}
         meta = read_run_config(run_dir)  # a damaged file is named
         config = meta["train_config"]
         per_iteration = config["num_envs"] * config["num_steps_per_env"]
