@@ -5,8 +5,9 @@ exported checkpoint (``hybrid-recovery export RUN --checkpoint …``): the heade
 ``results.jsonl`` names the checkpoint's iteration and env steps. Arms are
 ``LABEL=DIR[,DIR …]``, one line each; per pose it draws the success rate with its 95 %
 Wilson interval against env steps since ``--origin`` (an eval directory of the checkpoint
-the recorded rises came in at; a run's iteration 0 for a run from nothing), so that the old lineage's checkpoints lie left of 0, and
-dotted lines at the milestones (50 %, 80 %, the paper's 93.4 %). Prints a Markdown table.
+the recorded rises came in at, so that the old lineage's checkpoints lie left of 0; for a
+run from nothing its iteration 0), and dotted lines at the milestones (50 %, 80 %, the
+paper's 93.4 %). Prints a Markdown table.
 
     python research/plot_deployment_pace.py old=results/shipped,results/12650 \\
         control=results/c13950,results/c14450 teacher=results/t14300,results/t14575 \\
