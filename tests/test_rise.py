@@ -63,6 +63,7 @@ def test_squat_rise_ends_standing(model):
     controller = BalanceController()
     assert data.subtree_com[1, 2] < controller.config.min_com_height  # the QP alone declines
     assert controller.rise(model, data) and controller.rising
+    assert controller.qp.limit_margin == controller.config.rise.limit_margin == 0.0
     standing = 0.0
     for _ in range(int(5.0 / CONTROL_DT)):
         data.ctrl[:] = controller(model, data)
@@ -71,6 +72,7 @@ def test_squat_rise_ends_standing(model):
         standing = standing + CONTROL_DT if up else 0.0
         assert controller.diagnostics is not None and controller.diagnostics.applicable
     assert standing > 1.0 and not controller.rising
+    assert controller.qp.limit_margin == controller.config.qp.limit_margin > 0.0  # standing's
     assert [e.kind for e in controller.events if e.kind in ("rise", "risen")] == ["rise", "risen"]
     assert np.all(np.abs(data.ctrl) <= model.actuator_ctrlrange[:, 1] + 1e-6)
 

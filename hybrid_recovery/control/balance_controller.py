@@ -169,6 +169,7 @@ class BalanceController:
         self._xi_ref = np.mean([f.position[:2] for f in state.feet], axis=0)
         self._cmp_ref = self._xi_ref.copy()
         self._heading = _mean_heading([f.rotation for f in state.feet])
+        self.qp.limit_margin = cfg.limit_margin
         self.events.append(Event(t, "rise", f"rise from CoM height {state.com[2]:.2f} m to "
                                  f"{self._rise.height[1]:.2f} m over {cfg.duration:.1f} s"))
         return True
@@ -283,6 +284,7 @@ class BalanceController:
         if self._rise.done(t) and not self._down_reason(state, cfg.end_com_height,
                                                         cfg.end_tilt):
             self._rise, self._posture_ref = None, None
+            self.qp.limit_margin = self.config.qp.limit_margin
             self.events.append(Event(t, "risen", f"standing: CoM height {state.com[2]:.2f} m"))
 
     # ------------------------------------------------------------------ applicability
@@ -316,6 +318,7 @@ class BalanceController:
         if self._rise is not None:
             self.events.append(Event(t, "rise_failed", reason))
             self._rise = None
+            self.qp.limit_margin = self.config.qp.limit_margin
         self.went_down = True
         self.diagnostics = TickDiagnostics(
             time=t, applicable=False, reason=reason, strategy=Strategy.NOT_APPLICABLE,

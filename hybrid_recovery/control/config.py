@@ -175,6 +175,10 @@ class RiseConfig:
     starts with the pelvis pitched 30–40° forward; held less firmly, it pitches further
     as the knees extend, and the hips' yaw and roll limits (±0.43 rad) lock the legs in
     a bent-over stance."""
+    limit_margin: float = 0.0
+    """The QP's joint-limit margin δ while rising [rad] (standing: ``QpConfig.limit_margin``,
+    0.02). Legs that straighten under a pitched pelvis bring the hips' yaw and roll to
+    their ranges; the standing margin then leaves the QP almost no acceleration there."""
 
     def __post_init__(self) -> None:
         check_config(self)
@@ -272,7 +276,7 @@ RANGES: dict[str, dict[str, Range]] = {
     "RiseConfig": {
         "duration": POSITIVE, "min_com_height": POSITIVE, "max_tilt": POSITIVE,
         "max_sole_height": NON_NEGATIVE, "end_com_height": POSITIVE, "end_tilt": POSITIVE,
-        "w_pelvis_orientation": NON_NEGATIVE},
+        "w_pelvis_orientation": NON_NEGATIVE, "limit_margin": NON_NEGATIVE},
     "BalanceConfig": {
         "min_com_height": POSITIVE, "max_tilt": POSITIVE, "foot_contact_force": NON_NEGATIVE,
         "damping_gain": NON_NEGATIVE},

@@ -160,8 +160,10 @@ class WholeBodyQP:
         joint_range = np.asarray(joint_range, dtype=float)
         if joint_range.shape != (nv - 6, 2):
             raise ValueError(f"joint_range must have shape ({nv - 6}, 2), got {joint_range.shape}")
-        self.q_lo = joint_range[:, 0] + cfg.limit_margin
-        self.q_hi = joint_range[:, 1] - cfg.limit_margin
+        self.joint_range = joint_range
+        self.limit_margin = cfg.limit_margin
+        """δ [rad]: the box keeps q inside the ranges shrunk by δ (:meth:`reset` restores
+        ``cfg.limit_margin``; the balance controller's rise sets its own)."""
         # One dense QP per (stance, relaxed): the problem size depends on the stance.
         self._qps: dict[tuple[tuple[bool, bool], bool], proxsuite.proxqp.dense.QP] = {}
         self._fresh: dict[tuple[tuple[bool, bool], bool], bool] = {}
@@ -169,8 +171,19 @@ class WholeBodyQP:
         self.recorder: list[QpProblem] | None = None
         """Set to a list to record every nominal problem (benchmarks)."""
 
+    @property
+    def q_lo(self) -> np.ndarray:
+        """q_lo + δ, shape (27,) [rad]."""
+        return self.joint_range[:, 0] + self.limit_margin
+
+    @property
+    def q_hi(self) -> np.ndarray:
+        """q_hi − δ, shape (27,) [rad]."""
+        return self.joint_range[:, 1] - self.limit_margin
+
     def reset(self) -> None:
-        """Forgets warm starts and the last good command."""
+        """Forgets warm starts and the last good command; the margin is the config's."""
+        self.limit_margin = self.cfg.limit_margin
         self._qps.clear()
         self._fresh.clear()
         self.last_good = None
