@@ -23,10 +23,12 @@ from hybrid_recovery.getup.feasibility import FeasibilityConfig
 from hybrid_recovery.getup.move_executor import MoveConfig
 from hybrid_recovery.getup.push_up import PushUpConfig
 from hybrid_recovery.getup.relapse import GetupConfig
+from hybrid_recovery.getup.task_gains import ContactTaskGains
 
-CONFIGS = [FeasibilityConfig, ContactQpConfig, PushUpConfig, MoveConfig, GetupConfig,
-           control_config.QpConfig, control_config.DcmConfig, control_config.SteppingConfig,
-           control_config.BalanceConfig, control_config.SupervisorConfig,
+CONFIGS = [FeasibilityConfig, ContactQpConfig, ContactTaskGains, PushUpConfig, MoveConfig,
+           GetupConfig, control_config.QpConfig, control_config.DcmConfig,
+           control_config.SteppingConfig, control_config.BalanceConfig,
+           control_config.SupervisorConfig,
            env_config.RewardConfig, env_config.NoiseConfig, env_config.DomainRandConfig,
            env_config.PushConfig, env_config.CurriculumConfig, env_config.AssistConfig,
            env_config.BridgeConfig, env_config.RiseConfig, env_config.EnvConfig]
@@ -118,6 +120,10 @@ def test_a_nan_floor_is_refused_before_it_makes_the_head_a_support():
     (lambda: ContactQpConfig(max_iter=0), "ContactQpConfig.max_iter must be >= 1, got 0"),
     (lambda: PushUpConfig(range_factor=1.5),
      "PushUpConfig.range_factor must be > 0 and <= 1, got 1.5"),
+    (lambda: ContactTaskGains(kp_posture=-1.0),
+     "ContactTaskGains.kp_posture must be >= 0, got -1.0"),
+    (lambda: PushUpConfig(gains=ContactTaskGains(w_landing=-1.0)),
+     "ContactTaskGains.w_landing must be >= 0, got -1.0"),
     (lambda: GetupConfig(relapse_time=-1.0), "GetupConfig.relapse_time must be >= 0, got -1.0"),
     (lambda: control_config.QpConfig(friction="0.6"),
      "QpConfig.friction must be a number, got '0.6'"),

@@ -28,13 +28,14 @@ from dataclasses import dataclass, field
 import mujoco
 import numpy as np
 
-from hybrid_recovery.checks import NON_NEGATIVE, POSITIVE, Range, check_fields
+from hybrid_recovery.checks import POSITIVE, Range, check_fields
 from hybrid_recovery.control.wbc_qp import Task
 from hybrid_recovery.getup.contact_map import floor_contacts
 from hybrid_recovery.getup.contact_qp import ContactQP, ContactQpConfig, ContactQpSolution
 from hybrid_recovery.getup.feasibility import static_feasibility
 from hybrid_recovery.getup.ground_state import read_ground_pose
 from hybrid_recovery.getup.keyframes import KEYFRAMES
+from hybrid_recovery.getup.task_gains import ContactTaskGains
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.limits import SafetyLimits
 from hybrid_recovery.robot.mjcf import joint_addresses
@@ -59,13 +60,9 @@ class PushUpConfig:
         contacts: Named contacts that may bear load.
         duration: Smoothstep duration [s].
         pelvis_height: Pelvis height z at the end [m] (settled hands and knees: 0.50).
-        kp_posture: K_p [1/s²]. kd_posture: K_d [1/s]. w_posture: task weight.
-        kp_height: K_z [1/s²]. kd_height: D_z [1/s]. w_height: task weight.
-        kd_pelvis: Pelvis angular velocity damping [1/s]. w_pelvis: its weight.
         force_update: Period of the reference-force refresh [s].
-        kp_landing: K_l [1/s²]. kd_landing: D_l [1/s]. w_landing: weight of the landing
-            tasks.
         range_factor: Keyframe clamped to the joint ranges × this about their middle.
+        gains: Gains and weights of the posture, pelvis and landing tasks.
         qp: Settings of the QP.
     """
 
@@ -73,19 +70,9 @@ class PushUpConfig:
     contacts: tuple[str, ...] = HANDS_KNEES_TOES
     duration: float = 3.0
     pelvis_height: float = 0.50
-    kp_posture: float = 100.0
-    kd_posture: float = 20.0
-    w_posture: float = 1.0
-    kp_height: float = 100.0
-    kd_height: float = 20.0
-    w_height: float = 10.0
-    kd_pelvis: float = 10.0
-    w_pelvis: float = 1.0
     force_update: float = 0.05
-    kp_landing: float = 400.0
-    kd_landing: float = 40.0
-    w_landing: float = 100.0
     range_factor: float = 0.9
+    gains: ContactTaskGains = field(default_factory=ContactTaskGains)
     qp: ContactQpConfig = field(default_factory=ContactQpConfig)
 
     def __post_init__(self) -> None:
@@ -93,11 +80,8 @@ class PushUpConfig:
 
 
 RANGES: dict[str, Range] = {
-    "duration": POSITIVE, "pelvis_height": POSITIVE, "kp_posture": NON_NEGATIVE,
-    "kd_posture": NON_NEGATIVE, "w_posture": NON_NEGATIVE, "kp_height": NON_NEGATIVE,
-    "kd_height": NON_NEGATIVE, "w_height": NON_NEGATIVE, "kd_pelvis": NON_NEGATIVE,
-    "w_pelvis": NON_NEGATIVE, "force_update": POSITIVE, "kp_landing": NON_NEGATIVE,
-    "kd_landing": NON_NEGATIVE, "w_landing": NON_NEGATIVE, "range_factor": (0.0, False, 1.0)}
+    "duration": POSITIVE, "pelvis_height": POSITIVE, "force_update": POSITIVE,
+    "range_factor": (0.0, False, 1.0)}
 """Field of :class:`PushUpConfig` → its range."""
 
 
@@ -153,33 +137,33 @@ class PushUp:
     def tasks(self, data: mujoco.MjData, missing: tuple[str, ...]) -> list[Task]:
         """The posture, pelvis-height, pelvis-damping and landing tasks of ``data``'s
         time, ``missing`` the hands and knees off the floor."""
-        cfg, nv = self.config, self.qp.nv
+        cfg, gains, nv = self.config, self.config.gains, self.qp.nv
         s, ds, dds = _smoothstep((float(data.time) - self._t0) / cfg.duration)
         rate, curv = ds / cfg.duration, dds / cfg.duration**2
         delta = self._q1 - self._q0
         q, qd = data.qpos[self._qadr], data.qvel[6:]
         posture = np.hstack([np.zeros((27, 6)), np.eye(27)])
-        target = (curv * delta + cfg.kp_posture * (self._q0 + s * delta - q)
-                  + cfg.kd_posture * (rate * delta - qd))
+        target = (curv * delta + gains.kp_posture * (self._q0 + s * delta - q)
+                  + gains.kd_posture * (rate * delta - qd))
         m, d = self.qp.model, self.qp.reader.data
         jac, jdot = np.zeros((3, nv)), np.zeros((3, nv))
         mujoco.mj_jacBody(m, d, jac, None, self._pelvis)
         mujoco.mj_jacDot(m, d, jdot, None, d.xpos[self._pelvis], self._pelvis)
         dz = cfg.pelvis_height - self._z0
         z, zd = float(d.xpos[self._pelvis, 2]), float(jac[2] @ d.qvel)
-        height = (curv * dz + cfg.kp_height * (self._z0 + s * dz - z)
-                  + cfg.kd_height * (rate * dz - zd) - float(jdot[2] @ d.qvel))
+        height = (curv * dz + gains.kp_height * (self._z0 + s * dz - z)
+                  + gains.kd_height * (rate * dz - zd) - float(jdot[2] @ d.qvel))
         state = self._state
-        damping = -cfg.kd_pelvis * state.pelvis_angvel - state.pelvis_bias_acc
-        tasks = [Task("posture", posture, target, cfg.w_posture),
-                 Task("pelvis_height", jac[2:3], np.array([height]), cfg.w_height),
-                 Task("pelvis_damping", state.pelvis_jacobian, damping, cfg.w_pelvis)]
+        damping = -gains.kd_pelvis * state.pelvis_angvel - state.pelvis_bias_acc
+        tasks = [Task("posture", posture, target, gains.w_posture),
+                 Task("pelvis_height", jac[2:3], np.array([height]), gains.w_height),
+                 Task("pelvis_damping", state.pelvis_jacobian, damping, gains.w_pelvis)]
         if missing:
             low = self.qp.points(missing)
             vz = low.jacobians[:, 2] @ d.qvel
             tasks.append(Task("landing", low.jacobians[:, 2],
-                              -cfg.kp_landing * low.positions[:, 2] - cfg.kd_landing * vz
-                              - low.bias_acc[:, 2], cfg.w_landing))
+                              -gains.kp_landing * low.positions[:, 2] - gains.kd_landing * vz
+                              - low.bias_acc[:, 2], gains.w_landing))
         return tasks
 
     def _reference_forces(self, data: mujoco.MjData, active: tuple[str, ...],

@@ -34,6 +34,7 @@ from hybrid_recovery.getup.contact_ik import CONTACT_KEYFRAMES, ContactIk, Conta
 from hybrid_recovery.getup.contact_map import floor_contacts
 from hybrid_recovery.getup.contact_qp import ContactQP, ContactQpConfig, ContactQpSolution
 from hybrid_recovery.getup.keyframes import HANDS_KNEES
+from hybrid_recovery.getup.task_gains import ContactTaskGains
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.mjcf import joint_addresses
 
@@ -131,33 +132,20 @@ class ToSquatConfig:
     """Settings of :class:`ToSquat`.
 
     Attributes:
-        kp_posture: K_p [1/s²]. kd_posture: K_d [1/s]. w_posture: task weight.
         kp_com: K_c [1/s²]. kd_com: D_c [1/s]. w_com: task weight.
-        kp_height: K_z [1/s²]. kd_height: D_z [1/s]. w_height: task weight.
-        kd_pelvis: Pelvis angular velocity damping [1/s]. w_pelvis: its weight.
         support_depth: c_r lies this fraction of the way from the support polygon's
             point nearest the CoM to the middle of the support [-].
-        kp_landing: K_l [1/s²]. kd_landing: D_l [1/s]. w_landing: weight.
         range_factor: Keyframes solved within the joint ranges × this about their middle.
+        gains: Gains and weights of the posture, pelvis and landing tasks.
         qp: Settings of the QP.
     """
 
-    kp_posture: float = 100.0
-    kd_posture: float = 20.0
-    w_posture: float = 1.0
     kp_com: float = 100.0
     kd_com: float = 20.0
     w_com: float = 1000.0
-    kp_height: float = 100.0
-    kd_height: float = 20.0
-    w_height: float = 10.0
-    kd_pelvis: float = 10.0
-    w_pelvis: float = 1.0
     support_depth: float = 0.5
-    kp_landing: float = 400.0
-    kd_landing: float = 40.0
-    w_landing: float = 100.0
     range_factor: float = 0.9
+    gains: ContactTaskGains = field(default_factory=ContactTaskGains)
     qp: ContactQpConfig = field(default_factory=ContactQpConfig)
 
     def __post_init__(self) -> None:
@@ -165,10 +153,7 @@ class ToSquatConfig:
 
 
 RANGES: dict[str, Range] = {
-    **{name: NON_NEGATIVE for name in (
-        "kp_posture", "kd_posture", "w_posture", "kp_com", "kd_com", "w_com", "kp_height",
-        "kd_height", "w_height", "kd_pelvis", "w_pelvis", "kp_landing", "kd_landing",
-        "w_landing")},
+    "kp_com": NON_NEGATIVE, "kd_com": NON_NEGATIVE, "w_com": NON_NEGATIVE,
     "support_depth": (0.0, True, 1.0), "range_factor": (0.0, False, 1.0)}
 """Field of :class:`ToSquatConfig` → its range."""
 
@@ -306,16 +291,16 @@ class ToSquat:
 
     def tasks(self, data: mujoco.MjData, touching: set[str]) -> list[Task]:
         """The stage's tasks at ``data``'s time (module docstring)."""
-        cfg, stage, state = self.config, self._current(), self._state
+        gains, stage, state = self.config.gains, self._current(), self._state
         s, ds, dds = _smoothstep((float(data.time) - self._t0) / stage.duration)
         rate, curv = ds / stage.duration, dds / stage.duration**2
         nv = self.qp.nv
         delta = self._q1 - self._q0
         q, qd = data.qpos[self._qadr], data.qvel[6:]
         posture = np.hstack([np.zeros((27, 6)), np.eye(27)])
-        target = (curv * delta + cfg.kp_posture * (self._q0 + s * delta - q)
-                  + cfg.kd_posture * (rate * delta - qd))
-        tasks = [Task("posture", posture, target, cfg.w_posture)]
+        target = (curv * delta + gains.kp_posture * (self._q0 + s * delta - q)
+                  + gains.kd_posture * (rate * delta - qd))
+        tasks = [Task("posture", posture, target, gains.w_posture)]
         if stage.support:
             tasks.append(self._com_task(s, rate, curv))
         m, d = self.qp.model, self.qp.reader.data
@@ -324,18 +309,18 @@ class ToSquat:
         mujoco.mj_jacDot(m, d, jdot, None, d.xpos[self._pelvis], self._pelvis)
         dz = self._z1 - self._z0
         z, zd = float(d.xpos[self._pelvis, 2]), float(jac[2] @ d.qvel)
-        height = (curv * dz + cfg.kp_height * (self._z0 + s * dz - z)
-                  + cfg.kd_height * (rate * dz - zd) - float(jdot[2] @ d.qvel))
-        damping = -cfg.kd_pelvis * state.pelvis_angvel - state.pelvis_bias_acc
-        tasks += [Task("pelvis_height", jac[2:3], np.array([height]), cfg.w_height),
-                  Task("pelvis_damping", state.pelvis_jacobian, damping, cfg.w_pelvis)]
+        height = (curv * dz + gains.kp_height * (self._z0 + s * dz - z)
+                  + gains.kd_height * (rate * dz - zd) - float(jdot[2] @ d.qvel))
+        damping = -gains.kd_pelvis * state.pelvis_angvel - state.pelvis_bias_acc
+        tasks += [Task("pelvis_height", jac[2:3], np.array([height]), gains.w_height),
+                  Task("pelvis_damping", state.pelvis_jacobian, damping, gains.w_pelvis)]
         landing = tuple(c for c in stage.lands if c not in touching)
         if landing and s >= stage.land_after:
             low = self.qp.points(landing)
             vz = low.jacobians[:, 2] @ d.qvel
             tasks.append(Task("landing", low.jacobians[:, 2],
-                              -cfg.kp_landing * low.positions[:, 2] - cfg.kd_landing * vz
-                              - low.bias_acc[:, 2], cfg.w_landing))
+                              -gains.kp_landing * low.positions[:, 2] - gains.kd_landing * vz
+                              - low.bias_acc[:, 2], gains.w_landing))
         return tasks
 
     def __call__(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
