@@ -26,7 +26,8 @@ def test_model_controller_moves_to_knee_chest_pushes_up_and_goes_on_to_the_squat
     from hybrid_recovery.getup.push_up import on_hands_and_knees
 
     seen: list[tuple[float, bool]] = []
-    row = run_trial(make("model"), Scenario("prone", duration=15.0, seed=0),
+    controller = ModelController()
+    row = run_trial(controller, Scenario("prone", duration=9.0, seed=0),
                     on_sample=lambda model, data, _: seen.append(
                         (float(data.time), on_hands_and_knees(model, data)[0])))
     info = row["controller_info"]
@@ -37,10 +38,17 @@ def test_model_controller_moves_to_knee_chest_pushes_up_and_goes_on_to_the_squat
     [push_up] = info["push_ups"]
     assert push_up["start"] >= info["moves"][-1][0] and push_up["hands_and_knees"]
     assert 0.0 < push_up["worst_torque_ratio"] <= 1.0 + 1e-9
-    # from the check on, hands and knees → squat (the to-squat still under way at 15 s)
-    done = push_up["start"] + 3.5
+    # from the check on, hands and knees → squat (the to-squat still under way at 9 s),
+    # its stages at the controller's pace (ToSquatConfig.time_scale)
+    done = push_up["start"] + model_module.GROUND_PUSH_UP.duration + controller.push_up_settle
     [squat] = info["squats"]
     assert squat["start"] == pytest.approx(done, abs=0.01) and info["final_mode"] == "to_squat"
+    starts = [t for t, _ in controller.to_squat.log]
+    scale = model_module.GROUND_TO_SQUAT.time_scale
+    assert len(starts) >= 3 and starts[0] == pytest.approx(squat["start"], abs=0.003)
+    np.testing.assert_allclose(np.diff(starts), [stage.duration * scale for stage in
+                                                 controller.to_squat.stages[:len(starts) - 1]],
+                               atol=0.003)
     assert all(ok for t, ok in seen if done + 0.02 <= t <= squat["start"] + 0.5)
     assert any(not ok for t, ok in seen if t > squat["start"] + 1.0)  # a foot comes forward
     assert not row["success"] and not row["not_applicable"]
@@ -52,14 +60,16 @@ def test_model_controller_reaches_hands_and_knees_on_the_manufacturer_meshes():
     meshes and hands with the wrist meshes (read as the named contacts where they touch)."""
     if not REFERENCE_MJCF.is_file():
         pytest.skip(f"reference model not found at {REFERENCE_MJCF} (../shared absent)")
-    row = run_trial(make("model"), Scenario("prone", duration=11.0, seed=0),
+    controller = ModelController()
+    row = run_trial(controller, Scenario("prone", duration=8.0, seed=0),
                     str(REFERENCE_MJCF), rotor_inertia=True)
     info = row["controller_info"]
     assert [m for _, _, m in info["moves"]] == ["tuck from prone", "in knee_chest"]
     [push_up] = info["push_ups"]
     [squat] = info["squats"]
     assert push_up["hands_and_knees"] and info["final_mode"] == "to_squat"
-    assert squat["start"] >= push_up["start"] + 3.5 - 0.01 and not row["success"]
+    done = push_up["start"] + model_module.GROUND_PUSH_UP.duration + controller.push_up_settle
+    assert squat["start"] >= done - 0.01 and not row["success"]
 
 
 def test_model_controller_re_plans_after_a_push_up_that_misses(monkeypatch):

@@ -14,6 +14,7 @@ from hybrid_recovery.getup.feasibility import static_feasibility
 from hybrid_recovery.getup.ground_state import GroundPose, classify, read_ground_pose
 from hybrid_recovery.getup.keyframes import KEYFRAMES, mirror
 from hybrid_recovery.getup.move_executor import GroundMoves, MoveConfig
+from hybrid_recovery.getup.moves import MOVES
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.limits import SafetyLimits
 from hybrid_recovery.sim.initial_states import seat_single
@@ -49,14 +50,20 @@ def _run(model, data, moves: GroundMoves, until: float) -> tuple[float, float]:
     return peak, reach
 
 
-@pytest.mark.parametrize("seed", [0, 1])
-def test_prone_to_knee_chest_ends_in_its_contact_state(model, seed):
+@pytest.mark.parametrize("seed, time_scale", [(0, 1.0), (1, 1.0), (0, 0.5)])
+def test_prone_to_knee_chest_ends_in_its_contact_state(model, seed, time_scale):
+    """At the keyframes' pace and at twice it (``MoveConfig.time_scale``, the ``model``
+    controller's setting): the tuck's phase and hold take (duration + hold) × scale."""
     data = _start(model, "prone", seed)
-    moves = GroundMoves()
+    moves = GroundMoves(MoveConfig(time_scale=time_scale))
     moves.reset(model, data)
     peak, reach = _run(model, data, moves, until=10.0)
     assert moves.status == "arrived", [(e.kind, e.message) for e in moves.events]
     assert [e.message for e in moves.events] == ["tuck from prone", "in knee_chest"]
+    [tuck] = MOVES["tuck"].phases
+    start, end = (e.time for e in moves.events)
+    assert start == pytest.approx(moves.config.settle_time, abs=0.003)
+    assert end - start == pytest.approx((tuck.duration + tuck.hold) * time_scale, abs=0.003)
     pose = read_ground_pose(model, data)
     assert classify(pose) == "knee_chest"
     assert {"left_knee_link", "right_knee_link", "left_ankle_roll_link", "right_ankle_roll_link",
@@ -113,3 +120,6 @@ def test_move_config_messages():
     with pytest.raises(ValueError) as err:
         MoveConfig(range_factor=1.2)
     assert str(err.value) == "MoveConfig.range_factor must be > 0 and <= 1, got 1.2"
+    with pytest.raises(ValueError) as err:
+        MoveConfig(time_scale=0.0)
+    assert str(err.value) == "MoveConfig.time_scale must be > 0, got 0.0"

@@ -95,6 +95,8 @@ def test_configs_are_checked():
     with pytest.raises(ValueError,
                        match=r"ToSquatConfig.support_depth must be >= 0 and <= 1, got 2.0"):
         ToSquatConfig(support_depth=2.0)
+    with pytest.raises(ValueError, match=r"ToSquatConfig.time_scale must be > 0, got -1.0"):
+        ToSquatConfig(time_scale=-1.0)
     with pytest.raises(ValueError, match=r"KneelMoveConfig.bow_time must be > 0, got 0.0"):
         KneelMoveConfig(bow_time=0.0)
 

@@ -23,13 +23,23 @@ from hybrid_recovery.getup.kneel_move import CROUCHED, FAILED, KneelMove, is_kne
 from hybrid_recovery.getup.move_executor import ARRIVED, GroundMoves, MoveConfig
 from hybrid_recovery.getup.push_up import PushUp, PushUpConfig, on_hands_and_knees
 from hybrid_recovery.getup.relapse import com_height, move_events
-from hybrid_recovery.getup.to_squat import ToSquat
+from hybrid_recovery.getup.to_squat import ToSquat, ToSquatConfig
 from hybrid_recovery.robot.constants import UPRIGHT_COM_HEIGHT
 from hybrid_recovery.robot.limits import SafetyLimits
 from hybrid_recovery.robot.mjcf import joint_addresses
 
 MOVES, QP, PUSH_UP, HOLD, KNEEL, TO_SQUAT = ("moves", "qp", "push_up", "hold", "kneel",
                                              "to_squat")
+
+GROUND_MOVES = MoveConfig(time_scale=0.5)
+"""The PD moves to knee-chest at twice their keyframes' pace: knee-chest at 6.4 s from a
+supine start instead of 12.3 s."""
+GROUND_PUSH_UP = PushUpConfig(duration=2.0)
+"""The push-up over 2 s (its default: 3 s)."""
+GROUND_TO_SQUAT = ToSquatConfig(time_scale=0.85)
+"""Hands and knees → squat over 6.5 s (its stages' own pace: 7.6 s). With the three, the
+chain from supine reaches its squat at ~14.3 s and stands by ~17.5 s, inside the paper's
+20 s trials (at its own pace it stands at ~25.6 s: ``docs/experiments.md`` §15)."""
 
 
 class ModelController:
@@ -42,8 +52,9 @@ class ModelController:
     not end on hands and knees re-plans the moves from the state it left.
 
     Args:
-        config: Settings of the moves; defaults when None.
-        push_up: Settings of the push-up; defaults when None.
+        config: Settings of the moves; :data:`GROUND_MOVES` when None.
+        push_up: Settings of the push-up; :data:`GROUND_PUSH_UP` when None.
+        to_squat: Settings of hands and knees → squat; :data:`GROUND_TO_SQUAT` when None.
         push_up_settle: After the push-up's smoothstep, the QP holds its end this long
             before the hands-and-knees check [s].
         max_push_ups: Push-ups tried per episode; after the last one that misses, the
@@ -59,14 +70,14 @@ class ModelController:
     joint_target: np.ndarray | None = None
 
     def __init__(self, config: MoveConfig | None = None, push_up: PushUpConfig | None = None,
-                 push_up_settle: float = 0.5, max_push_ups: int = 2,
-                 rise_wait: float = 1.0) -> None:
+                 to_squat: ToSquatConfig | None = None, push_up_settle: float = 0.3,
+                 max_push_ups: int = 2, rise_wait: float = 1.0) -> None:
         self.balance = BalanceController()
-        self.moves = GroundMoves(config)
-        self.push_up = PushUp(push_up)
+        self.moves = GroundMoves(config or GROUND_MOVES)
+        self.push_up = PushUp(push_up or GROUND_PUSH_UP)
         self.push_up_settle, self.max_push_ups = push_up_settle, max_push_ups
         self.kneel, self.rise_wait = KneelMove(), rise_wait
-        self.to_squat = ToSquat()
+        self.to_squat = ToSquat(to_squat or GROUND_TO_SQUAT)
 
     def reset(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         self.balance.reset(model, data)

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from hybrid_recovery.checks import NON_NEGATIVE, Range, check_fields
+from hybrid_recovery.checks import NON_NEGATIVE, POSITIVE, Range, check_fields
 from hybrid_recovery.control.diagnostics import Event
 from hybrid_recovery.control.policy_controller import pd_torque
 from hybrid_recovery.getup.ground_state import GROUND_STATES, classify, read_ground_pose
@@ -37,19 +37,23 @@ class MoveConfig:
         max_moves: Moves tried before giving up (``stuck``).
         settle_time: The joints are held this long before the first classification, so
             that a robot dropped onto the floor has landed [s].
+        time_scale: Every phase's duration and hold are multiplied by this [-] (< 1: the
+            same keyframes, faster).
     """
 
     goal: str = "knee_chest"
     range_factor: float = 0.9
     max_moves: int = 8
     settle_time: float = 0.5
+    time_scale: float = 1.0
 
     def __post_init__(self) -> None:
         check_config(self)
 
 
 RANGES: dict[str, Range] = {"range_factor": (0.0, False, 1.0),
-                            "max_moves": (1, True, float("inf")), "settle_time": NON_NEGATIVE}
+                            "max_moves": (1, True, float("inf")), "settle_time": NON_NEGATIVE,
+                            "time_scale": POSITIVE}
 """Field of :class:`MoveConfig` → its range."""
 
 
@@ -140,15 +144,16 @@ class GroundMoves:
             self._plan(model, data)
         if self.move is not None:
             phase = self.move.phases[self.phase]
-            elapsed = float(data.time) - self._t0
-            if elapsed >= phase.duration + phase.hold - 1e-9:
+            elapsed, scale = float(data.time) - self._t0, self.config.time_scale
+            if elapsed >= (phase.duration + phase.hold) * scale - 1e-9:
                 if self.phase + 1 < len(self.move.phases):
                     self._start_phase(self.phase + 1, data)
                 else:
                     self._finish(model, data)
             if self.move is not None:
                 phase = self.move.phases[self.phase]
-                s = float(np.clip((float(data.time) - self._t0) / phase.duration, 0.0, 1.0))
+                s = float(np.clip((float(data.time) - self._t0) / (phase.duration * scale),
+                                  0.0, 1.0))
                 s = s * s * (3.0 - 2.0 * s)
                 self.q_ref = (1.0 - s) * self._from + s * self._to
         return self.q_ref

@@ -28,7 +28,7 @@ import mujoco
 import numpy as np
 from scipy.spatial import ConvexHull, QhullError
 
-from hybrid_recovery.checks import NON_NEGATIVE, Range, check_fields
+from hybrid_recovery.checks import NON_NEGATIVE, POSITIVE, Range, check_fields
 from hybrid_recovery.control.wbc_qp import Task
 from hybrid_recovery.getup.contact_ik import CONTACT_KEYFRAMES, ContactIk, ContactKeyframe
 from hybrid_recovery.getup.contact_map import floor_contacts
@@ -136,6 +136,8 @@ class ToSquatConfig:
         support_depth: c_r lies this fraction of the way from the support polygon's
             point nearest the CoM to the middle of the support [-].
         range_factor: Keyframes solved within the joint ranges × this about their middle.
+        time_scale: Every stage's duration is multiplied by this [-] (< 1: the same
+            keyframes, faster).
         gains: Gains and weights of the posture, pelvis and landing tasks.
         qp: Settings of the QP.
     """
@@ -145,6 +147,7 @@ class ToSquatConfig:
     w_com: float = 1000.0
     support_depth: float = 0.5
     range_factor: float = 0.9
+    time_scale: float = 1.0
     gains: ContactTaskGains = field(default_factory=ContactTaskGains)
     qp: ContactQpConfig = field(default_factory=ContactQpConfig)
 
@@ -154,7 +157,8 @@ class ToSquatConfig:
 
 RANGES: dict[str, Range] = {
     "kp_com": NON_NEGATIVE, "kd_com": NON_NEGATIVE, "w_com": NON_NEGATIVE,
-    "support_depth": (0.0, True, 1.0), "range_factor": (0.0, False, 1.0)}
+    "support_depth": (0.0, True, 1.0), "range_factor": (0.0, False, 1.0),
+    "time_scale": POSITIVE}
 """Field of :class:`ToSquatConfig` → its range."""
 
 
@@ -292,8 +296,9 @@ class ToSquat:
     def tasks(self, data: mujoco.MjData, touching: set[str]) -> list[Task]:
         """The stage's tasks at ``data``'s time (module docstring)."""
         gains, stage, state = self.config.gains, self._current(), self._state
-        s, ds, dds = _smoothstep((float(data.time) - self._t0) / stage.duration)
-        rate, curv = ds / stage.duration, dds / stage.duration**2
+        duration = stage.duration * self.config.time_scale
+        s, ds, dds = _smoothstep((float(data.time) - self._t0) / duration)
+        rate, curv = ds / duration, dds / duration**2
         nv = self.qp.nv
         delta = self._q1 - self._q0
         q, qd = data.qpos[self._qadr], data.qvel[6:]
@@ -327,7 +332,8 @@ class ToSquat:
         """τ (27,) [N·m], motor order, for ``data``'s state; once done, the last stage's
         end is held."""
         self._state = self.qp.read(data)
-        if not self.done and float(data.time) >= self._t0 + self.stages[self.stage].duration:
+        if not self.done and float(data.time) >= (
+                self._t0 + self.stages[self.stage].duration * self.config.time_scale):
             self._next_stage(data)
         stage = self._current()
         touching = set(floor_contacts(model, data)[0])
