@@ -8,11 +8,16 @@ import pytest
 
 from hybrid_recovery.control import BalanceController, default_config, load_torque_model
 from hybrid_recovery.control.config import RiseConfig
-from hybrid_recovery.control.rise import min_jerk, standing_com_height
+from hybrid_recovery.control.rise import (
+    min_jerk,
+    reset_step_target,
+    standing_com_height,
+    standing_sole_width,
+)
 from hybrid_recovery.control.torque_model import CONTROL_DT
 from hybrid_recovery.evaluation.scenario import Scenario
 from hybrid_recovery.evaluation.trial import start_state
-from hybrid_recovery.robot.constants import UPRIGHT_COM_HEIGHT
+from hybrid_recovery.robot.constants import DEFAULT_JOINT_POS, UPRIGHT_COM_HEIGHT
 from hybrid_recovery.sim.initial_states import seat_single
 
 
@@ -51,6 +56,57 @@ def test_standing_height_is_where_a_standing_robot_settles(model):
     settled = float(data.subtree_com[model.body("pelvis").id, 2])
     assert standing_com_height(model) == pytest.approx(settled, abs=0.01)
     assert standing_com_height(model) > UPRIGHT_COM_HEIGHT + 0.05
+
+
+def test_reset_step_target_is_beside_the_stance_at_the_standing_width(model):
+    """The width from q*'s forward kinematics against the leg's body offsets (q* has the
+    hips' yaw and roll at 0 and every other leg joint turns about y, so the sole's lateral
+    offset is the sum of the chain's y offsets: an analytic case), and the target on the
+    heading's lateral axis (heading 90°)."""
+    site = model.site("left_foot").id
+    body, offset = model.site_bodyid[site], float(model.site_pos[site][1])
+    while model.body(body).name != "pelvis":
+        assert np.allclose(model.body_quat[body], [1.0, 0.0, 0.0, 0.0])
+        offset += float(model.body_pos[body][1])
+        body = model.body_parentid[body]
+    width = standing_sole_width(model)
+    assert width == pytest.approx(2 * offset, abs=1e-9)
+    assert DEFAULT_JOINT_POS[[0, 2, 6, 8]].tolist() == [0.0, 0.0, 0.0, 0.0]
+    heading = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])  # facing +y
+    stance = np.array([1.0, 2.0])
+    np.testing.assert_allclose(reset_step_target(stance, heading, 0, width), [1.0 - width, 2.0])
+    np.testing.assert_allclose(reset_step_target(stance, heading, 1, width), [1.0 + width, 2.0])
+
+
+def test_a_locked_rise_resets_its_stance_and_stands(model):
+    """Squatting seed 28 lands with the hips' yaw and roll at their ranges and locks at a
+    CoM of ~0.8 m (docs/experiments.md §15); the stance reset moves the CoM onto one
+    sole, steps the other foot to the standing width beside it and rises again (it stood
+    in 3 of 3 runs with the joint velocities perturbed by 1e-6 rad/s)."""
+    data = _start(model, "squatting", 28)
+    controller = BalanceController()
+    assert controller.rise(model, data)
+    cfg = controller.config.rise
+    standing, heights = 0.0, []
+    for _ in range(int(10.0 / CONTROL_DT)):
+        data.ctrl[:] = controller(model, data)
+        mujoco.mj_step(model, data)
+        heights.append(float(data.subtree_com[1, 2]))
+        standing = standing + CONTROL_DT if heights[-1] > UPRIGHT_COM_HEIGHT else 0.0
+        assert np.all(np.abs(data.ctrl) <= model.actuator_ctrlrange[:, 1] + 1e-6)
+    kinds = [(e.kind, e.time) for e in controller.events
+             if e.kind in ("rise", "stance_reset", "step", "touchdown", "risen")]
+    assert [k for k, _ in kinds] == ["rise", "stance_reset", "step", "touchdown", "rise",
+                                     "risen"]
+    locked_at = kinds[1][1]
+    assert locked_at == pytest.approx(cfg.duration + cfg.stall_time, abs=0.01)
+    assert max(heights[:int(locked_at / CONTROL_DT)]) < cfg.end_com_height  # it was locked
+    [step] = controller.steps
+    stance = step.first_plan.stance_cop
+    assert np.linalg.norm(step.first_plan.target - stance) == pytest.approx(
+        standing_sole_width(model), abs=1e-9)
+    tilt = np.degrees(np.arccos(data.xmat[1].reshape(3, 3)[2, 2]))
+    assert standing > 1.0 and tilt < 20.0 and not controller.rising
 
 
 def test_rise_config_is_checked():

@@ -31,7 +31,13 @@ from hybrid_recovery.control.config import BalanceConfig, default_config
 from hybrid_recovery.control.dcm import DcmCommand, dcm_command, hip_reach
 from hybrid_recovery.control.diagnostics import Capturability, Event, Strategy, TickDiagnostics
 from hybrid_recovery.control.polygon import convex_hull, signed_distance_scalar
-from hybrid_recovery.control.rise import RiseTrajectory, crouched_on_feet, standing_com_height
+from hybrid_recovery.control.rise import (
+    RiseTrajectory,
+    crouched_on_feet,
+    reset_step_target,
+    standing_com_height,
+    standing_sole_width,
+)
 from hybrid_recovery.control.robot_state import RobotState, StateReader
 from hybrid_recovery.control.stepping import (
     StepPlan,
@@ -105,6 +111,7 @@ class BalanceController:
         self._posture_ref: np.ndarray | None = None
         self._rise: RiseTrajectory | None = None
         self._standing_height: dict[int, float] = {}
+        self._sole_width: dict[int, float] = {}
 
     # ------------------------------------------------------------------ lifecycle
     def reset(self, model: mujoco.MjModel, data: mujoco.MjData,
@@ -143,6 +150,10 @@ class BalanceController:
         self._last_status = "solved"
         self._posture_ref = None if posture is None else np.array(posture, dtype=float)
         self._rise = None
+        self._stall_since: float | None = None
+        self._resets = 0
+        self._stance_reset: tuple[str, int, float] | None = None  # (phase, swing, start)
+        self._shift_from = np.zeros(2)
         self._init_references(self._read(data), float(data.time))
 
     def rise(self, model: mujoco.MjModel, data: mujoco.MjData) -> bool:
@@ -162,6 +173,7 @@ class BalanceController:
             return False
         if id(model) not in self._standing_height:
             self._standing_height[id(model)] = standing_com_height(model)
+            self._sole_width[id(model)] = standing_sole_width(model)
         t = float(data.time)
         self._rise = RiseTrajectory(
             t, cfg.duration, (float(state.com[2]), self._standing_height[id(model)]),
@@ -232,7 +244,7 @@ class BalanceController:
         if self._phase == DOUBLE_SUPPORT:
             plan = self._step_plan(state, t, cmd, support)
             if plan is not None:
-                self._start_step(state, t, cmd, plan)
+                self._start_step(state, t, cmd.capture_point, plan)
                 support = self._support(state)
                 cmd = self._dcm(state, t, support)
         stance = (True, True) if self._phase == DOUBLE_SUPPORT else (
@@ -286,6 +298,53 @@ class BalanceController:
             self._rise, self._posture_ref = None, None
             self.qp.limit_margin = self.config.qp.limit_margin
             self.events.append(Event(t, "risen", f"standing: CoM height {state.com[2]:.2f} m"))
+        elif self._rise.done(t) and self._phase == DOUBLE_SUPPORT:
+            self._reset_stance(state, t)
+
+    def _reset_stance(self, state: RobotState, t: float) -> None:
+        """A locked rise (:mod:`.rise`; ``RiseConfig.stall_time``): ξ_ref moved linearly onto
+        the sole nearer the CoM over half of ``shift_time``, the other foot stepped to the
+        standing width beside it once the CoM is there (or ``shift_time`` is up), then the
+        profile again from the stance it lands in."""
+        assert self._rise is not None and self._model is not None
+        cfg = self.config.rise
+        if self._stance_reset is None:
+            if state.com[2] >= cfg.end_com_height or self._resets >= cfg.max_resets:
+                self._stall_since = None
+                return
+            self._stall_since = t if self._stall_since is None else self._stall_since
+            if t - self._stall_since < cfg.stall_time - 1e-9:
+                return
+            swing = int(np.argmax([np.linalg.norm(f.position[:2] - state.com[:2])
+                                   for f in state.feet]))
+            self._stance_reset = ("shift", swing, t)
+            self._resets += 1
+            self._shift_from = self._xi_ref.copy()
+            self.events.append(Event(t, "stance_reset", f"locked at CoM height "
+                                     f"{state.com[2]:.2f} m: the CoM onto the "
+                                     f"{('right', 'left')[swing]} foot"))
+            return
+        phase, swing, start = self._stance_reset
+        if phase == "shift":
+            stance = state.feet[1 - swing].position[:2]
+            ramp = min((t - start) / (0.5 * cfg.shift_time), 1.0) if cfg.shift_time > 0 else 1.0
+            self._xi_ref = self._shift_from + ramp * (stance - self._shift_from)
+            self._cmp_ref = self._xi_ref.copy()
+            if ((ramp < 1.0 or np.linalg.norm(state.com[:2] - stance) > cfg.shift_tolerance)
+                    and t - start < cfg.shift_time - 1e-9):
+                return
+            target = reset_step_target(stance, self._heading, swing,
+                                       self._sole_width[id(self._model)])
+            self._start_step(state, t, stance, StepPlan(swing, target, np.zeros((0, 2)), True,
+                                                        stance.copy(), stance.copy()))
+            self._swing_heading = self._heading.copy()
+            self._stance_reset = ("step", swing, start)
+            return
+        # the step has landed (double support again): the profile from this stance
+        self._stance_reset, self._stall_since = None, None
+        self._rise = RiseTrajectory(t, cfg.duration, (float(state.com[2]), self._rise.height[1]),
+                                    (state.qpos[7:].copy(), self._rise.posture[1]))
+        self.events.append(Event(t, "rise", f"rise again from CoM height {state.com[2]:.2f} m"))
 
     # ------------------------------------------------------------------ applicability
     def down_reason(self, state: RobotState) -> str:
@@ -386,8 +445,8 @@ class BalanceController:
         rots = np.array([f.rotation for f in state.feet])
         return xy, corners, rots
 
-    def _start_step(self, state: RobotState, t: float, cmd: DcmCommand, plan: StepPlan
-                    ) -> None:
+    def _start_step(self, state: RobotState, t: float, capture_point: np.ndarray,
+                    plan: StepPlan) -> None:
         cfg = self.config.stepping
         foot = state.feet[plan.swing]
         self._plan = plan
@@ -400,7 +459,7 @@ class BalanceController:
         side = ("left", "right")[plan.swing]
         self.events.append(Event(
             t, "step", f"{side} foot to ({plan.target[0]:.3f}, {plan.target[1]:.3f}) m, "
-            f"xi = ({cmd.capture_point[0]:.3f}, {cmd.capture_point[1]:.3f}) m, "
+            f"xi = ({capture_point[0]:.3f}, {capture_point[1]:.3f}) m, "
             f"{'inside' if plan.capturable else 'outside'} the 1-step capture region"))
 
     def _update_swing(self, state: RobotState, t: float, contact: list[bool]) -> None:

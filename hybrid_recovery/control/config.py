@@ -179,6 +179,17 @@ class RiseConfig:
     """The QP's joint-limit margin δ while rising [rad] (standing: ``QpConfig.limit_margin``,
     0.02). Legs that straighten under a pitched pelvis bring the hips' yaw and roll to
     their ranges; the standing margin then leaves the QP almost no acceleration there."""
+    stall_time: float = 0.5
+    """A rise whose profile is over with the CoM still below ``end_com_height`` for this
+    long is locked (the hips' yaw and roll at their ranges, the pelvis pitched): the
+    stance is reset, one foot re-placed beside the other [s]."""
+    max_resets: int = 2
+    """Stance resets per rise."""
+    shift_time: float = 2.0
+    """A reset carries ξ_ref onto the stance sole for at most this long before the other
+    foot lifts [s]."""
+    shift_tolerance: float = 0.04
+    """... or until the CoM is this close to the stance sole's centre [m]."""
 
     def __post_init__(self) -> None:
         check_config(self)
@@ -276,7 +287,9 @@ RANGES: dict[str, dict[str, Range]] = {
     "RiseConfig": {
         "duration": POSITIVE, "min_com_height": POSITIVE, "max_tilt": POSITIVE,
         "max_sole_height": NON_NEGATIVE, "end_com_height": POSITIVE, "end_tilt": POSITIVE,
-        "w_pelvis_orientation": NON_NEGATIVE, "limit_margin": NON_NEGATIVE},
+        "w_pelvis_orientation": NON_NEGATIVE, "limit_margin": NON_NEGATIVE,
+        "stall_time": NON_NEGATIVE, "max_resets": NON_NEGATIVE, "shift_time": NON_NEGATIVE,
+        "shift_tolerance": NON_NEGATIVE},
     "BalanceConfig": {
         "min_com_height": POSITIVE, "max_tilt": POSITIVE, "foot_contact_force": NON_NEGATIVE,
         "damping_gain": NON_NEGATIVE},

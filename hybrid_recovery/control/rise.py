@@ -10,6 +10,13 @@ pose (h*, q*) along one profile s(t):
 
 (zero velocity and acceleration at both ends). :class:`~.balance_controller.
 BalanceController` tracks them (:meth:`~.balance_controller.BalanceController.rise`).
+
+A start that lands with the knees at their flexion limit can splay the knees through the
+hips' yaw and roll (nearly parallel at ~95° of hip flexion) to their ranges; the QP then
+raises the CoM with the pelvis pitched forward and stops short of h*. Such a locked rise
+is unlocked by a stance reset: ξ_ref is carried onto the sole nearer the CoM, the other
+foot steps to the standing width beside it at the rise's heading
+(:func:`reset_step_target`), and the profile starts again from where the robot stands.
 """
 
 from __future__ import annotations
@@ -43,6 +50,25 @@ def standing_com_height(model: mujoco.MjModel) -> float:
     mujoco.mj_comPos(model, data)
     soles = [data.site(f"{side}_foot").xpos[2] for side in ("left", "right")]
     return float(data.subtree_com[model.body("pelvis").id, 2] - np.mean(soles))
+
+
+def standing_sole_width(model: mujoco.MjModel) -> float:
+    """The lateral distance of the sole sites ``left_foot`` and ``right_foot`` in the
+    default pose q* [m]."""
+    data = mujoco.MjData(model)
+    data.qpos[3] = 1.0
+    data.qpos[model.jnt_qposadr[1:1 + constants.NUM_JOINTS]] = constants.DEFAULT_JOINT_POS
+    mujoco.mj_kinematics(model, data)
+    return float(abs(data.site("left_foot").xpos[1] - data.site("right_foot").xpos[1]))
+
+
+def reset_step_target(stance: np.ndarray, heading: np.ndarray, swing: int,
+                      width: float) -> np.ndarray:
+    """Where a stance reset puts the swing sole: ``width`` [m] beside the stance sole
+    centre ``stance`` (2,) [m] along the heading's lateral axis (``heading`` R_z(ψ), (3, 3)),
+    to its left for the left foot (``swing`` 0) and its right for the right (1): (2,) [m]."""
+    side = 1.0 if swing == 0 else -1.0
+    return np.asarray(stance, dtype=float)[:2] + side * width * heading[:2, 1]
 
 
 def crouched_on_feet(state: RobotState, max_sole_height: float, min_com_height: float,
