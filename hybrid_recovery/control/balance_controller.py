@@ -110,8 +110,7 @@ class BalanceController:
         self._qp: WholeBodyQP | None = None
         self._posture_ref: np.ndarray | None = None
         self._rise: RiseTrajectory | None = None
-        self._standing_height: dict[int, float] = {}
-        self._sole_width: dict[int, float] = {}
+        self._standing: dict[int, tuple[float, float]] = {}  # model id → (h*, sole width)
 
     # ------------------------------------------------------------------ lifecycle
     def reset(self, model: mujoco.MjModel, data: mujoco.MjData,
@@ -152,8 +151,8 @@ class BalanceController:
         self._rise = None
         self._stall_since: float | None = None
         self._resets = 0
-        self._stance_reset: tuple[str, int, float] | None = None  # (phase, swing, start)
-        self._shift_from = np.zeros(2)
+        # (phase, swing foot, start [s], ξ_ref at the start (2,) [m])
+        self._stance_reset: tuple[str, int, float, np.ndarray] | None = None
         self._init_references(self._read(data), float(data.time))
 
     def rise(self, model: mujoco.MjModel, data: mujoco.MjData) -> bool:
@@ -171,12 +170,11 @@ class BalanceController:
         state = self._read(data)
         if not crouched_on_feet(state, cfg.max_sole_height, cfg.min_com_height, cfg.max_tilt):
             return False
-        if id(model) not in self._standing_height:
-            self._standing_height[id(model)] = standing_com_height(model)
-            self._sole_width[id(model)] = standing_sole_width(model)
+        if id(model) not in self._standing:
+            self._standing[id(model)] = (standing_com_height(model), standing_sole_width(model))
         t = float(data.time)
         self._rise = RiseTrajectory(
-            t, cfg.duration, (float(state.com[2]), self._standing_height[id(model)]),
+            t, cfg.duration, (float(state.com[2]), self._standing[id(model)][0]),
             (state.qpos[7:].copy(), constants.DEFAULT_JOINT_POS.copy()))
         self._xi_ref = np.mean([f.position[:2] for f in state.feet], axis=0)
         self._cmp_ref = self._xi_ref.copy()
@@ -317,28 +315,27 @@ class BalanceController:
                 return
             swing = int(np.argmax([np.linalg.norm(f.position[:2] - state.com[:2])
                                    for f in state.feet]))
-            self._stance_reset = ("shift", swing, t)
+            self._stance_reset = ("shift", swing, t, self._xi_ref.copy())
             self._resets += 1
-            self._shift_from = self._xi_ref.copy()
             self.events.append(Event(t, "stance_reset", f"locked at CoM height "
                                      f"{state.com[2]:.2f} m: the CoM onto the "
                                      f"{('right', 'left')[swing]} foot"))
             return
-        phase, swing, start = self._stance_reset
+        phase, swing, start, shift_from = self._stance_reset
         if phase == "shift":
             stance = state.feet[1 - swing].position[:2]
             ramp = min((t - start) / (0.5 * cfg.shift_time), 1.0) if cfg.shift_time > 0 else 1.0
-            self._xi_ref = self._shift_from + ramp * (stance - self._shift_from)
+            self._xi_ref = shift_from + ramp * (stance - shift_from)
             self._cmp_ref = self._xi_ref.copy()
             if ((ramp < 1.0 or np.linalg.norm(state.com[:2] - stance) > cfg.shift_tolerance)
                     and t - start < cfg.shift_time - 1e-9):
                 return
             target = reset_step_target(stance, self._heading, swing,
-                                       self._sole_width[id(self._model)])
+                                       self._standing[id(self._model)][1])
             self._start_step(state, t, stance, StepPlan(swing, target, np.zeros((0, 2)), True,
                                                         stance.copy(), stance.copy()))
             self._swing_heading = self._heading.copy()
-            self._stance_reset = ("step", swing, start)
+            self._stance_reset = ("step", swing, start, shift_from)
             return
         # the step has landed (double support again): the profile from this stance
         self._stance_reset, self._stall_since = None, None

@@ -36,6 +36,15 @@ def min_jerk(tau: float) -> float:
     return tau**3 * (10.0 - 15.0 * tau + 6.0 * tau * tau)
 
 
+def _default_pose(model: mujoco.MjModel) -> mujoco.MjData:
+    """``model``'s data in q* with an upright pelvis at the origin, kinematics done."""
+    data = mujoco.MjData(model)
+    data.qpos[3] = 1.0  # identity quaternion of the free joint
+    data.qpos[model.jnt_qposadr[1:1 + constants.NUM_JOINTS]] = constants.DEFAULT_JOINT_POS
+    mujoco.mj_kinematics(model, data)
+    return data
+
+
 def standing_com_height(model: mujoco.MjModel) -> float:
     """h*: the CoM height above the soles of the default pose q* standing upright [m].
 
@@ -43,10 +52,7 @@ def standing_com_height(model: mujoco.MjModel) -> float:
     the pelvis subtree CoM height minus the mean height of the sole sites
     ``left_foot`` and ``right_foot``.
     """
-    data = mujoco.MjData(model)
-    data.qpos[3] = 1.0  # identity quaternion of the free joint
-    data.qpos[model.jnt_qposadr[1:1 + constants.NUM_JOINTS]] = constants.DEFAULT_JOINT_POS
-    mujoco.mj_kinematics(model, data)
+    data = _default_pose(model)
     mujoco.mj_comPos(model, data)
     soles = [data.site(f"{side}_foot").xpos[2] for side in ("left", "right")]
     return float(data.subtree_com[model.body("pelvis").id, 2] - np.mean(soles))
@@ -55,10 +61,7 @@ def standing_com_height(model: mujoco.MjModel) -> float:
 def standing_sole_width(model: mujoco.MjModel) -> float:
     """The lateral distance of the sole sites ``left_foot`` and ``right_foot`` in the
     default pose q* [m]."""
-    data = mujoco.MjData(model)
-    data.qpos[3] = 1.0
-    data.qpos[model.jnt_qposadr[1:1 + constants.NUM_JOINTS]] = constants.DEFAULT_JOINT_POS
-    mujoco.mj_kinematics(model, data)
+    data = _default_pose(model)
     return float(abs(data.site("left_foot").xpos[1] - data.site("right_foot").xpos[1]))
 
 
