@@ -20,14 +20,16 @@ from hybrid_recovery.envs.config_values import INFINITE, RANGES
 from hybrid_recovery.envs.rise_starts import load_rises
 from hybrid_recovery.getup.contact_qp import ContactQpConfig
 from hybrid_recovery.getup.feasibility import FeasibilityConfig
+from hybrid_recovery.getup.kneel_move import KneelMoveConfig
 from hybrid_recovery.getup.move_executor import MoveConfig
 from hybrid_recovery.getup.push_up import PushUpConfig
 from hybrid_recovery.getup.relapse import GetupConfig
 from hybrid_recovery.getup.task_gains import ContactTaskGains
+from hybrid_recovery.getup.to_squat import ToSquatConfig
 
-CONFIGS = [FeasibilityConfig, ContactQpConfig, ContactTaskGains, PushUpConfig, MoveConfig,
-           GetupConfig, control_config.QpConfig, control_config.DcmConfig,
-           control_config.SteppingConfig, control_config.BalanceConfig,
+CONFIGS = [FeasibilityConfig, ContactQpConfig, ContactTaskGains, PushUpConfig, ToSquatConfig,
+           KneelMoveConfig, MoveConfig, GetupConfig, control_config.QpConfig,
+           control_config.DcmConfig, control_config.SteppingConfig, control_config.BalanceConfig,
            control_config.SupervisorConfig,
            env_config.RewardConfig, env_config.NoiseConfig, env_config.DomainRandConfig,
            env_config.PushConfig, env_config.CurriculumConfig, env_config.AssistConfig,
@@ -124,6 +126,12 @@ def test_a_nan_floor_is_refused_before_it_makes_the_head_a_support():
      "ContactTaskGains.kp_posture must be >= 0, got -1.0"),
     (lambda: PushUpConfig(gains=ContactTaskGains(w_landing=-1.0)),
      "ContactTaskGains.w_landing must be >= 0, got -1.0"),
+    (lambda: ToSquatConfig(support_depth=2.0),
+     "ToSquatConfig.support_depth must be >= 0 and <= 1, got 2.0"),
+    (lambda: ToSquatConfig(time_scale=0.0), "ToSquatConfig.time_scale must be > 0, got 0.0"),
+    (lambda: KneelMoveConfig(bow_settle=-1.0), "KneelMoveConfig.bow_settle must be >= 0, got -1.0"),
+    (lambda: KneelMoveConfig(range_factor=0.0),
+     "KneelMoveConfig.range_factor must be > 0 and <= 1, got 0.0"),
     (lambda: GetupConfig(relapse_time=-1.0), "GetupConfig.relapse_time must be >= 0, got -1.0"),
     (lambda: control_config.QpConfig(friction="0.6"),
      "QpConfig.friction must be a number, got '0.6'"),

@@ -14,9 +14,10 @@ Each call (every physics step, 500 Hz at dt = 2 ms) reads the state, decides the
 (double support, or swinging one foot in a capture step), turns the capture-point law
 (:mod:`.dcm`) into a desired momentum rate, and solves the whole-body QP
 (:mod:`.wbc_qp`). On the ground (low CoM, a non-foot contact or a large tilt) it
-does not pretend: it reports ``applicable = False`` ("not applicable") and outputs
-joint damping only. From a crouch on both feet :meth:`BalanceController.rise` stands the
-robot up (:mod:`.rise`): the same law and QP with rising height and posture references.
+does not pretend: it reports ``applicable = False`` ("not applicable",
+:mod:`.applicability`) and outputs joint damping only. From a crouch on both feet
+:meth:`BalanceController.rise` stands the robot up (:mod:`.rise`): the same law and QP
+with rising height and posture references.
 """
 
 from __future__ import annotations
@@ -27,14 +28,16 @@ import time
 import mujoco
 import numpy as np
 
+from hybrid_recovery.control.applicability import NAN_STATE_MESSAGE, check_state, down_reason
 from hybrid_recovery.control.config import BalanceConfig, default_config
 from hybrid_recovery.control.dcm import DcmCommand, dcm_command, hip_reach
 from hybrid_recovery.control.diagnostics import Capturability, Event, Strategy, TickDiagnostics
 from hybrid_recovery.control.polygon import convex_hull, signed_distance_scalar
 from hybrid_recovery.control.rise import (
+    SHIFT,
     RiseTrajectory,
+    StanceReset,
     crouched_on_feet,
-    reset_step_target,
     standing_com_height,
     standing_sole_width,
 )
@@ -58,15 +61,11 @@ from hybrid_recovery.control.wbc_qp import QpSolution, Task, WholeBodyQP
 from hybrid_recovery.dynamics import GRAVITY
 from hybrid_recovery.robot import constants
 
+__all__ = ["NAN_STATE_MESSAGE", "BalanceController", "check_state"]
+
 DOUBLE_SUPPORT = "double_support"
 SWING = ("swing_left", "swing_right")
 _UPPER_BODY = slice(12, 27)
-
-NAN_STATE_MESSAGE = "BalanceController: the state has NaN or inf entries (qpos or qvel)"
-def check_state(data: mujoco.MjData) -> None:
-    """Raises ValueError (:data:`NAN_STATE_MESSAGE`) on a non-finite qpos or qvel."""
-    if not (np.all(np.isfinite(data.qpos)) and np.all(np.isfinite(data.qvel))):
-        raise ValueError(NAN_STATE_MESSAGE)
 
 
 def _yaw_rotation(rot: np.ndarray) -> np.ndarray:
@@ -149,10 +148,7 @@ class BalanceController:
         self._last_status = "solved"
         self._posture_ref = None if posture is None else np.array(posture, dtype=float)
         self._rise = None
-        self._stall_since: float | None = None
-        self._resets = 0
-        # (phase, swing foot, start [s], ξ_ref at the start (2,) [m])
-        self._stance_reset: tuple[str, int, float, np.ndarray] | None = None
+        self._stance_reset = StanceReset()
         self._init_references(self._read(data), float(data.time))
 
     def rise(self, model: mujoco.MjModel, data: mujoco.MjData) -> bool:
@@ -291,8 +287,7 @@ class BalanceController:
         self._height_ref = self._rise.height_ref(t)
         self._posture_ref = self._rise.posture_ref(t)
         cfg = self.config.rise
-        if self._rise.done(t) and not self._down_reason(state, cfg.end_com_height,
-                                                        cfg.end_tilt):
+        if self._rise.done(t) and not down_reason(state, cfg.end_com_height, cfg.end_tilt):
             self._rise, self._posture_ref = None, None
             self.qp.limit_margin = self.config.qp.limit_margin
             self.events.append(Event(t, "risen", f"standing: CoM height {state.com[2]:.2f} m"))
@@ -300,71 +295,38 @@ class BalanceController:
             self._reset_stance(state, t)
 
     def _reset_stance(self, state: RobotState, t: float) -> None:
-        """A locked rise (:mod:`.rise`; ``RiseConfig.stall_time``): ξ_ref moved linearly onto
-        the sole nearer the CoM over half of ``shift_time``, the other foot stepped to the
-        standing width beside it once the CoM is there (or ``shift_time`` is up), then the
-        profile again from the stance it lands in."""
+        """A locked rise (:class:`~.rise.StanceReset`; ``RiseConfig.stall_time``): ξ_ref
+        moved onto the sole nearer the CoM, the other foot stepped to the standing width
+        beside it, then the profile again from the stance it lands in."""
         assert self._rise is not None and self._model is not None
-        cfg = self.config.rise
-        if self._stance_reset is None:
-            if state.com[2] >= cfg.end_com_height or self._resets >= cfg.max_resets:
-                self._stall_since = None
-                return
-            self._stall_since = t if self._stall_since is None else self._stall_since
-            if t - self._stall_since < cfg.stall_time - 1e-9:
-                return
-            swing = int(np.argmax([np.linalg.norm(f.position[:2] - state.com[:2])
-                                   for f in state.feet]))
-            self._stance_reset = ("shift", swing, t, self._xi_ref.copy())
-            self._resets += 1
-            self.events.append(Event(t, "stance_reset", f"locked at CoM height "
-                                     f"{state.com[2]:.2f} m: the CoM onto the "
-                                     f"{('right', 'left')[swing]} foot"))
-            return
-        phase, swing, start, shift_from = self._stance_reset
-        if phase == "shift":
-            stance = state.feet[1 - swing].position[:2]
-            ramp = min((t - start) / (0.5 * cfg.shift_time), 1.0) if cfg.shift_time > 0 else 1.0
-            self._xi_ref = shift_from + ramp * (stance - shift_from)
+        cfg, reset = self.config.rise, self._stance_reset
+        if reset.phase is None:
+            if reset.locked(state, t, cfg):
+                reset.begin(state, t, self._xi_ref)
+                self.events.append(Event(t, "stance_reset", f"locked at CoM height "
+                                         f"{state.com[2]:.2f} m: the CoM onto the "
+                                         f"{('right', 'left')[reset.swing]} foot"))
+        elif reset.phase == SHIFT:
+            self._xi_ref, lift = reset.shift(state, t, cfg)
             self._cmp_ref = self._xi_ref.copy()
-            if ((ramp < 1.0 or np.linalg.norm(state.com[:2] - stance) > cfg.shift_tolerance)
-                    and t - start < cfg.shift_time - 1e-9):
-                return
-            target = reset_step_target(stance, self._heading, swing,
-                                       self._standing[id(self._model)][1])
-            self._start_step(state, t, stance, StepPlan(swing, target, np.zeros((0, 2)), True,
-                                                        stance.copy(), stance.copy()))
-            self._swing_heading = self._heading.copy()
-            self._stance_reset = ("step", swing, start, shift_from)
-            return
-        # the step has landed (double support again): the profile from this stance
-        self._stance_reset, self._stall_since = None, None
-        self._rise = RiseTrajectory(t, cfg.duration, (float(state.com[2]), self._rise.height[1]),
-                                    (state.qpos[7:].copy(), self._rise.posture[1]))
-        self.events.append(Event(t, "rise", f"rise again from CoM height {state.com[2]:.2f} m"))
+            if lift:
+                plan = reset.step(state, self._heading, self._standing[id(self._model)][1])
+                self._start_step(state, t, plan.stance_cop, plan)
+                self._swing_heading = self._heading.copy()
+        else:  # the step has landed (double support again): the profile from this stance
+            reset.finish()
+            self._rise = RiseTrajectory(
+                t, cfg.duration, (float(state.com[2]), self._rise.height[1]),
+                (state.qpos[7:].copy(), self._rise.posture[1]))
+            self.events.append(Event(t, "rise",
+                                     f"rise again from CoM height {state.com[2]:.2f} m"))
 
     # ------------------------------------------------------------------ applicability
     def down_reason(self, state: RobotState) -> str:
         """Why the QP does not apply ("" when it does): low CoM, non-foot contact, tilt
         (while rising with :class:`~.config.RiseConfig`'s bounds)."""
-        if self._rise is None:
-            return self._standing_reason(state)
-        return self._down_reason(state, self.config.rise.min_com_height,
-                                 self.config.rise.max_tilt)
-
-    def _standing_reason(self, state: RobotState) -> str:
-        return self._down_reason(state, self.config.min_com_height, self.config.max_tilt)
-
-    @staticmethod
-    def _down_reason(state: RobotState, min_height: float, max_tilt: float) -> str:
-        if state.com[2] < min_height:
-            return f"CoM height {state.com[2]:.2f} m < {min_height:.2f} m"
-        if state.non_foot_contact:
-            return "non-foot contact with the ground"
-        tilt = float(np.arccos(np.clip(state.pelvis_rotation[2, 2], -1.0, 1.0)))
-        if tilt > max_tilt:
-            return f"pelvis tilt {np.degrees(tilt):.0f} deg > {np.degrees(max_tilt):.0f} deg"
-        return ""
+        bounds = self.config if self._rise is None else self.config.rise
+        return down_reason(state, bounds.min_com_height, bounds.max_tilt)
 
     def _not_applicable(self, state: RobotState, t: float, reason: str, start: float
                         ) -> np.ndarray:

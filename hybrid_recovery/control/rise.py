@@ -14,20 +14,27 @@ BalanceController` tracks them (:meth:`~.balance_controller.BalanceController.ri
 A start that lands with the knees at their flexion limit can splay the knees through the
 hips' yaw and roll (nearly parallel at ~95° of hip flexion) to their ranges; the QP then
 raises the CoM with the pelvis pitched forward and stops short of h*. Such a locked rise
-is unlocked by a stance reset: ξ_ref is carried onto the sole nearer the CoM, the other
-foot steps to the standing width beside it at the rise's heading
-(:func:`reset_step_target`), and the profile starts again from where the robot stands.
+is unlocked by a stance reset (:class:`StanceReset`): ξ_ref is carried onto the sole
+nearer the CoM, the other foot steps to the standing width beside it at the rise's
+heading (:func:`reset_step_target`), and the profile starts again from where the robot
+stands.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
 
+from hybrid_recovery.control.applicability import pelvis_tilt
+from hybrid_recovery.control.config import RiseConfig
 from hybrid_recovery.control.robot_state import RobotState
+from hybrid_recovery.control.stepping import StepPlan
 from hybrid_recovery.robot import constants
+
+SHIFT, STEP = "shift", "step"
+"""The phases of a :class:`StanceReset` under way."""
 
 
 def min_jerk(tau: float) -> float:
@@ -79,7 +86,7 @@ def crouched_on_feet(state: RobotState, max_sole_height: float, min_com_height: 
     """Whether a rise can start: both sole centres within ``max_sole_height`` [m] of the
     ground, no other part of the robot on it, the CoM at least ``min_com_height`` [m] up
     and the pelvis tilted less than ``max_tilt`` [rad] from vertical."""
-    tilt = float(np.arccos(np.clip(state.pelvis_rotation[2, 2], -1.0, 1.0)))
+    tilt = pelvis_tilt(state)
     return (all(foot.position[2] <= max_sole_height for foot in state.feet)
             and not state.non_foot_contact and float(state.com[2]) >= min_com_height
             and tilt <= max_tilt)
@@ -118,3 +125,71 @@ class RiseTrajectory:
         """q_ref(t), shape (27,) [rad]."""
         start, end = self.posture
         return start + self.phase(t) * (end - start)
+
+
+@dataclass
+class StanceReset:
+    """The stance resets of one rise (module docstring).
+
+    A rise is locked once its profile is over and the CoM has stayed below
+    ``RiseConfig.end_com_height`` for ``stall_time``. A reset then carries ξ_ref onto the
+    sole nearer the CoM (:data:`SHIFT`), steps the other foot to the standing width
+    beside it (:data:`STEP`) and, once that foot has landed, the profile starts again.
+
+    Attributes:
+        count: Resets started in this rise (at most ``RiseConfig.max_resets``).
+        stall_since: Since when the rise has stalled [s]; None while it has not.
+        phase: :data:`SHIFT` or :data:`STEP` while a reset is under way, else None.
+        swing: The foot that steps, 0 left / 1 right.
+        start: When the reset under way started [s].
+        shift_from: ξ_ref at its start, shape (2,) [m].
+    """
+
+    count: int = 0
+    stall_since: float | None = None
+    phase: str | None = None
+    swing: int = 0
+    start: float = 0.0
+    shift_from: np.ndarray = field(default_factory=lambda: np.zeros(2))
+
+    def locked(self, state: RobotState, t: float, cfg: RiseConfig) -> bool:
+        """Whether the rise, its profile over, is locked at ``t`` [s] with resets left;
+        runs the stall clock (stopped once the CoM is up or no reset is left)."""
+        if state.com[2] >= cfg.end_com_height or self.count >= cfg.max_resets:
+            self.stall_since = None
+            return False
+        self.stall_since = t if self.stall_since is None else self.stall_since
+        return t - self.stall_since >= cfg.stall_time - 1e-9
+
+    def begin(self, state: RobotState, t: float, xi_ref: np.ndarray) -> None:
+        """Starts a reset at ``t`` [s] from ξ_ref ``xi_ref`` (2,) [m]: the foot farther
+        from the CoM will step."""
+        self.swing = int(np.argmax([np.linalg.norm(f.position[:2] - state.com[:2])
+                                    for f in state.feet]))
+        self.phase, self.start, self.shift_from = SHIFT, t, xi_ref.copy()
+        self.count += 1
+
+    def shift(self, state: RobotState, t: float, cfg: RiseConfig) -> tuple[np.ndarray, bool]:
+        """ξ_ref at ``t`` [s], moved linearly onto the stance sole's centre over half of
+        ``shift_time``, (2,) [m]; and whether the other foot lifts now: the CoM within
+        ``shift_tolerance`` of that centre once ξ_ref is there, or ``shift_time`` up."""
+        stance = state.feet[1 - self.swing].position[:2]
+        ramp = min((t - self.start) / (0.5 * cfg.shift_time), 1.0) if cfg.shift_time > 0 else 1.0
+        xi_ref = self.shift_from + ramp * (stance - self.shift_from)
+        wait = ((ramp < 1.0 or np.linalg.norm(state.com[:2] - stance) > cfg.shift_tolerance)
+                and t - self.start < cfg.shift_time - 1e-9)
+        return xi_ref, not wait
+
+    def step(self, state: RobotState, heading: np.ndarray, width: float) -> StepPlan:
+        """The step of the other foot to ``width`` [m] beside the stance sole at the
+        heading R_z(ψ) ``heading`` (3, 3) (:func:`reset_step_target`); the reset is then
+        in :data:`STEP`."""
+        stance = state.feet[1 - self.swing].position[:2]
+        target = reset_step_target(stance, heading, self.swing, width)
+        self.phase = STEP
+        return StepPlan(self.swing, target, np.zeros((0, 2)), True, stance.copy(),
+                        stance.copy())
+
+    def finish(self) -> None:
+        """The step has landed: no reset under way, the stall clock stopped."""
+        self.phase, self.stall_since = None, None

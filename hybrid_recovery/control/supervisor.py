@@ -45,7 +45,8 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
-from hybrid_recovery.control.balance_controller import BalanceController, check_state
+from hybrid_recovery.control.applicability import check_state
+from hybrid_recovery.control.balance_controller import BalanceController
 from hybrid_recovery.control.config import BalanceConfig, SupervisorConfig, default_config
 from hybrid_recovery.control.diagnostics import Capturability, Event, TickDiagnostics
 from hybrid_recovery.control.model_validity import (

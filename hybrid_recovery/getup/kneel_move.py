@@ -21,6 +21,7 @@ from hybrid_recovery.getup.contacts import FLOOR_CONTACTS, contact_points_world
 from hybrid_recovery.getup.ground_state import read_ground_pose
 from hybrid_recovery.getup.keyframes import KNEE_CHEST
 from hybrid_recovery.getup.push_up import PushUp, PushUpConfig, on_hands_and_knees
+from hybrid_recovery.getup.smoothstep import smoothstep
 from hybrid_recovery.getup.to_squat import ToSquat, ToSquatConfig
 from hybrid_recovery.robot.limits import SafetyLimits
 from hybrid_recovery.robot.mjcf import joint_addresses
@@ -122,8 +123,8 @@ class KneelMove:
         elif self.phase == TO_SQUAT and self.to_squat.done:
             self._start(CROUCHED, data)
         if self.phase == BOW:
-            t = min(max(elapsed / cfg.bow_time, 0.0), 1.0)
-            q_ref = self._q0 + t * t * (3.0 - 2.0 * t) * (self._q1 - self._q0)
+            s = smoothstep(elapsed / cfg.bow_time)[0]
+            q_ref = self._q0 + s * (self._q1 - self._q0)
             return pd_torque(q_ref, data.qpos[self._qadr], data.qvel[self._dadr])
         if self.phase in (PUSH_UP, FAILED):
             return self.push_up(model, data)

@@ -21,6 +21,7 @@ from hybrid_recovery.control.policy_controller import pd_torque
 from hybrid_recovery.getup.ground_state import GROUND_STATES, classify, read_ground_pose
 from hybrid_recovery.getup.keyframes import KEYFRAMES, mirror
 from hybrid_recovery.getup.moves import MOVES, NEXT_MOVE, Move
+from hybrid_recovery.getup.smoothstep import smoothstep
 from hybrid_recovery.robot.limits import SafetyLimits
 from hybrid_recovery.robot.mjcf import joint_addresses
 
@@ -152,9 +153,7 @@ class GroundMoves:
                     self._finish(model, data)
             if self.move is not None:
                 phase = self.move.phases[self.phase]
-                s = float(np.clip((float(data.time) - self._t0) / (phase.duration * scale),
-                                  0.0, 1.0))
-                s = s * s * (3.0 - 2.0 * s)
+                s = smoothstep((float(data.time) - self._t0) / (phase.duration * scale))[0]
                 self.q_ref = (1.0 - s) * self._from + s * self._to
         return self.q_ref
 

@@ -32,9 +32,11 @@ from hybrid_recovery.checks import POSITIVE, Range, check_fields
 from hybrid_recovery.control.wbc_qp import Task
 from hybrid_recovery.getup.contact_map import floor_contacts
 from hybrid_recovery.getup.contact_qp import ContactQP, ContactQpConfig, ContactQpSolution
+from hybrid_recovery.getup.contact_tasks import landing_task, pelvis_tasks, posture_task
 from hybrid_recovery.getup.feasibility import static_feasibility
 from hybrid_recovery.getup.ground_state import read_ground_pose
 from hybrid_recovery.getup.keyframes import KEYFRAMES
+from hybrid_recovery.getup.smoothstep import smoothstep_profile
 from hybrid_recovery.getup.task_gains import ContactTaskGains
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.limits import SafetyLimits
@@ -98,13 +100,6 @@ def check_config(config: PushUpConfig) -> None:
     check_fields(config, RANGES)
 
 
-def _smoothstep(t: float) -> tuple[float, float, float]:
-    """s, ds/dt, d²s/dt² of s = 3t² − 2t³ on t ∈ [0, 1], constant outside."""
-    if t <= 0.0 or t >= 1.0:
-        return (0.0 if t <= 0.0 else 1.0), 0.0, 0.0
-    return t * t * (3.0 - 2.0 * t), 6.0 * t * (1.0 - t), 6.0 - 12.0 * t
-
-
 class PushUp:
     """τ for the push-up, one QP per physics step.
 
@@ -136,34 +131,16 @@ class PushUp:
 
     def tasks(self, data: mujoco.MjData, missing: tuple[str, ...]) -> list[Task]:
         """The posture, pelvis-height, pelvis-damping and landing tasks of ``data``'s
-        time, ``missing`` the hands and knees off the floor."""
-        cfg, gains, nv = self.config, self.config.gains, self.qp.nv
-        s, ds, dds = _smoothstep((float(data.time) - self._t0) / cfg.duration)
-        rate, curv = ds / cfg.duration, dds / cfg.duration**2
-        delta = self._q1 - self._q0
-        q, qd = data.qpos[self._qadr], data.qvel[6:]
-        posture = np.hstack([np.zeros((27, 6)), np.eye(27)])
-        target = (curv * delta + gains.kp_posture * (self._q0 + s * delta - q)
-                  + gains.kd_posture * (rate * delta - qd))
-        m, d = self.qp.model, self.qp.reader.data
-        jac, jdot = np.zeros((3, nv)), np.zeros((3, nv))
-        mujoco.mj_jacBody(m, d, jac, None, self._pelvis)
-        mujoco.mj_jacDot(m, d, jdot, None, d.xpos[self._pelvis], self._pelvis)
-        dz = cfg.pelvis_height - self._z0
-        z, zd = float(d.xpos[self._pelvis, 2]), float(jac[2] @ d.qvel)
-        height = (curv * dz + gains.kp_height * (self._z0 + s * dz - z)
-                  + gains.kd_height * (rate * dz - zd) - float(jdot[2] @ d.qvel))
-        state = self._state
-        damping = -gains.kd_pelvis * state.pelvis_angvel - state.pelvis_bias_acc
-        tasks = [Task("posture", posture, target, gains.w_posture),
-                 Task("pelvis_height", jac[2:3], np.array([height]), gains.w_height),
-                 Task("pelvis_damping", state.pelvis_jacobian, damping, gains.w_pelvis)]
+        time (:mod:`~hybrid_recovery.getup.contact_tasks`), ``missing`` the hands and knees
+        off the floor."""
+        cfg, gains = self.config, self.config.gains
+        profile = smoothstep_profile(float(data.time) - self._t0, cfg.duration)
+        tasks = [posture_task(data.qpos[self._qadr], data.qvel[6:], self._q0, self._q1,
+                              profile, gains),
+                 *pelvis_tasks(self.qp, self._state, self._pelvis,
+                               (self._z0, cfg.pelvis_height), profile, gains)]
         if missing:
-            low = self.qp.points(missing)
-            vz = low.jacobians[:, 2] @ d.qvel
-            tasks.append(Task("landing", low.jacobians[:, 2],
-                              -gains.kp_landing * low.positions[:, 2] - gains.kd_landing * vz
-                              - low.bias_acc[:, 2], gains.w_landing))
+            tasks.append(landing_task(self.qp, missing, gains))
         return tasks
 
     def _reference_forces(self, data: mujoco.MjData, active: tuple[str, ...],

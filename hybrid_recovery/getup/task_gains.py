@@ -1,15 +1,10 @@
 """Gains and weights of the tasks the multi-contact moves share.
 
 :class:`~hybrid_recovery.getup.push_up.PushUp` and
-:class:`~hybrid_recovery.getup.to_squat.ToSquat` both put these tasks on
-:class:`~hybrid_recovery.getup.contact_qp.ContactQP`, each a weighted PD law toward a
-reference:
-
-* posture: q̈°_a = q̈_r + K_p (q_r − q) + K_d (q̇_r − q̇);
-* pelvis height: z̈° = z̈_r + K_z (z_r − z) + D_z (ż_r − ż);
-* pelvis damping: the pelvis's angular velocity damped;
-* landing: a hand, knee or foot not yet on the floor has its lowest point p_z lowered,
-  p̈°_z = K_l (0 − p_z) − D_l ṗ_z.
+:class:`~hybrid_recovery.getup.to_squat.ToSquat` both put the posture, pelvis-height,
+pelvis-damping and landing tasks of :mod:`hybrid_recovery.getup.contact_tasks` (each a
+weighted PD law toward a reference) on
+:class:`~hybrid_recovery.getup.contact_qp.ContactQP`, with these gains.
 """
 
 from __future__ import annotations
@@ -21,12 +16,13 @@ from hybrid_recovery.checks import NON_NEGATIVE, Range, check_fields
 
 @dataclass(frozen=True)
 class ContactTaskGains:
-    """Gains and weights of the posture, pelvis and landing tasks (module docstring).
+    """Gains and weights of the posture, pelvis and landing tasks
+    (:mod:`~hybrid_recovery.getup.contact_tasks`).
 
     Attributes:
         kp_posture: K_p [1/s²]. kd_posture: K_d [1/s]. w_posture: task weight.
         kp_height: K_z [1/s²]. kd_height: D_z [1/s]. w_height: task weight.
-        kd_pelvis: Pelvis angular velocity damping [1/s]. w_pelvis: its weight.
+        kd_pelvis: D_ω, pelvis angular velocity damping [1/s]. w_pelvis: its weight.
         kp_landing: K_l [1/s²]. kd_landing: D_l [1/s]. w_landing: weight of the landing
             tasks.
     """

@@ -33,7 +33,14 @@ from hybrid_recovery.control.wbc_qp import Task
 from hybrid_recovery.getup.contact_ik import CONTACT_KEYFRAMES, ContactIk, ContactKeyframe
 from hybrid_recovery.getup.contact_map import floor_contacts
 from hybrid_recovery.getup.contact_qp import ContactQP, ContactQpConfig, ContactQpSolution
+from hybrid_recovery.getup.contact_tasks import (
+    Profile,
+    landing_task,
+    pelvis_tasks,
+    posture_task,
+)
 from hybrid_recovery.getup.keyframes import HANDS_KNEES
+from hybrid_recovery.getup.smoothstep import smoothstep_profile
 from hybrid_recovery.getup.task_gains import ContactTaskGains
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.mjcf import joint_addresses
@@ -211,13 +218,6 @@ def closest_in_polygon(points: np.ndarray, p: np.ndarray) -> np.ndarray:
     return best
 
 
-def _smoothstep(t: float) -> tuple[float, float, float]:
-    """s, ds/dt, d²s/dt² of s = 3t² − 2t³ on t ∈ [0, 1], constant outside."""
-    if t <= 0.0 or t >= 1.0:
-        return (0.0 if t <= 0.0 else 1.0), 0.0, 0.0
-    return t * t * (3.0 - 2.0 * t), 6.0 * t * (1.0 - t), 6.0 - 12.0 * t
-
-
 class ToSquat:
     """τ for hands and knees → squat, one QP per physics step (module docstring).
 
@@ -283,9 +283,10 @@ class ToSquat:
         edge = closest_in_polygon(xy, self._c0)
         return edge + self.config.support_depth * (middle - edge)
 
-    def _com_task(self, s: float, rate: float, curv: float) -> Task:
-        """c̈°_xy toward c_r(s) (module docstring)."""
+    def _com_task(self, profile: Profile) -> Task:
+        """c̈°_xy toward c_r(s) (module docstring), ``profile`` (s, ṡ, s̈) now."""
         cfg, state = self.config, self._state
+        s, rate, curv = profile
         dc = self._c1 - self._c0
         com_jac = state.cmm[:2] / state.mass
         com_acc = (curv * dc + cfg.kp_com * (self._c0 + s * dc - state.com[:2])
@@ -295,37 +296,18 @@ class ToSquat:
 
     def tasks(self, data: mujoco.MjData, touching: set[str]) -> list[Task]:
         """The stage's tasks at ``data``'s time (module docstring)."""
-        gains, stage, state = self.config.gains, self._current(), self._state
-        duration = stage.duration * self.config.time_scale
-        s, ds, dds = _smoothstep((float(data.time) - self._t0) / duration)
-        rate, curv = ds / duration, dds / duration**2
-        nv = self.qp.nv
-        delta = self._q1 - self._q0
-        q, qd = data.qpos[self._qadr], data.qvel[6:]
-        posture = np.hstack([np.zeros((27, 6)), np.eye(27)])
-        target = (curv * delta + gains.kp_posture * (self._q0 + s * delta - q)
-                  + gains.kd_posture * (rate * delta - qd))
-        tasks = [Task("posture", posture, target, gains.w_posture)]
+        gains, stage = self.config.gains, self._current()
+        profile = smoothstep_profile(float(data.time) - self._t0,
+                                     stage.duration * self.config.time_scale)
+        tasks = [posture_task(data.qpos[self._qadr], data.qvel[6:], self._q0, self._q1,
+                              profile, gains)]
         if stage.support:
-            tasks.append(self._com_task(s, rate, curv))
-        m, d = self.qp.model, self.qp.reader.data
-        jac, jdot = np.zeros((3, nv)), np.zeros((3, nv))
-        mujoco.mj_jacBody(m, d, jac, None, self._pelvis)
-        mujoco.mj_jacDot(m, d, jdot, None, d.xpos[self._pelvis], self._pelvis)
-        dz = self._z1 - self._z0
-        z, zd = float(d.xpos[self._pelvis, 2]), float(jac[2] @ d.qvel)
-        height = (curv * dz + gains.kp_height * (self._z0 + s * dz - z)
-                  + gains.kd_height * (rate * dz - zd) - float(jdot[2] @ d.qvel))
-        damping = -gains.kd_pelvis * state.pelvis_angvel - state.pelvis_bias_acc
-        tasks += [Task("pelvis_height", jac[2:3], np.array([height]), gains.w_height),
-                  Task("pelvis_damping", state.pelvis_jacobian, damping, gains.w_pelvis)]
+            tasks.append(self._com_task(profile))
+        tasks += pelvis_tasks(self.qp, self._state, self._pelvis, (self._z0, self._z1),
+                              profile, gains)
         landing = tuple(c for c in stage.lands if c not in touching)
-        if landing and s >= stage.land_after:
-            low = self.qp.points(landing)
-            vz = low.jacobians[:, 2] @ d.qvel
-            tasks.append(Task("landing", low.jacobians[:, 2],
-                              -gains.kp_landing * low.positions[:, 2] - gains.kd_landing * vz
-                              - low.bias_acc[:, 2], gains.w_landing))
+        if landing and profile[0] >= stage.land_after:  # s past the stage's land_after
+            tasks.append(landing_task(self.qp, landing, gains))
         return tasks
 
     def __call__(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
