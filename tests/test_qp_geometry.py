@@ -47,6 +47,33 @@ def test_closest_point_is_the_projection():
         assert np.linalg.norm(p - c) == pytest.approx(max(signed_distance_scalar(p, SQUARE), 0.0))
 
 
+def _brute_force(point: np.ndarray, polygon: np.ndarray) -> tuple[float, np.ndarray]:
+    """Signed distance and closest point from 2000 samples along every edge and the edge
+    lines' half-planes, one edge at a time (the straightforward reference)."""
+    s = np.linspace(0.0, 1.0, 2001)[:, None]
+    edges = [(a, b) for a, b in zip(polygon, np.roll(polygon, -1, axis=0), strict=True)]
+    boundary = np.concatenate([a + s * (b - a) for a, b in edges])
+    distances = np.linalg.norm(boundary - point, axis=1)
+    nearest = boundary[np.argmin(distances)]
+    normals = [np.array([b[1] - a[1], a[0] - b[0]]) / np.linalg.norm(b - a) for a, b in edges]
+    inside = all(n @ (point - a) <= 0.0 for n, (a, _) in zip(normals, edges, strict=True))
+    return (-distances.min() if inside else distances.min()), (point if inside else nearest)
+
+
+def test_signed_distance_and_closest_point_match_a_brute_force_reference():
+    """Random convex polygons (3-8 vertices), points inside, outside, on vertices and edges."""
+    rng = np.random.default_rng(2)
+    for _ in range(40):
+        hull = convex_hull(rng.normal(size=(int(rng.integers(3, 9)), 2)) * 0.2)
+        points = [*rng.normal(size=(6, 2)) * 0.3, hull[0], 0.5 * (hull[0] + hull[1])]
+        for p in points:
+            distance, nearest = _brute_force(p, hull)
+            assert signed_distance_scalar(p, hull) == pytest.approx(distance, abs=1e-3 * 0.4)
+            np.testing.assert_allclose(closest_point(p, hull), nearest, atol=1e-3 * 0.4)
+    assert signed_distance_scalar([3.0, 4.0], np.zeros((1, 2))) == pytest.approx(5.0)
+    np.testing.assert_allclose(closest_point([2.0, 1.0], SQUARE[:2]), [1.0, 0.0])
+
+
 def test_shrink_and_clip():
     np.testing.assert_allclose(shrink(SQUARE, 0.1), [[0.1, 0.1], [0.9, 0.1], [0.9, 0.9],
                                                      [0.1, 0.9]])

@@ -12,7 +12,7 @@ from hybrid_recovery.control.robot_state import StateReader
 from hybrid_recovery.control.rollout import standing_data
 from hybrid_recovery.control.torque_model import MODEL_MESSAGE
 from hybrid_recovery.control.wbc_qp import Task, WholeBodyQP, pyramid_basis
-from hybrid_recovery.dynamics import RobotModel
+from hybrid_recovery.dynamics import GRAVITY, RobotModel
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.mjcf import load_mjmodel
 
@@ -92,6 +92,43 @@ def test_foot_jacobian_derivative_by_finite_differences(model):
     np.testing.assert_allclose(state.pelvis_bias_acc, jdot @ data.qvel, atol=1e-4)
 
 
+def test_soles_match_mujoco_site_by_site(model):
+    """Both soles at once (one batched J q̇, all corner Jacobians in one array) against
+    MuJoCo's own site quantities, one site at a time; earlier reads stay untouched."""
+    reader = StateReader(model)
+    first = reader.read(_moving_data(model, seed=4))
+    kept = [(f.position.copy(), f.jacobian.copy(), f.corner_jacobians.copy()) for f in first.feet]
+    data = _moving_data(model, seed=5)
+    state = reader.read(data)
+    for side, name in enumerate(("left", "right")):
+        foot, site = state.feet[side], model.site(f"{name}_foot").id
+        jac = np.zeros((6, model.nv))
+        mujoco.mj_jacSite(model, data, jac[3:], jac[:3], site)
+        np.testing.assert_allclose(foot.jacobian, jac, atol=1e-12)
+        np.testing.assert_allclose(foot.velocity, jac @ data.qvel, atol=1e-12)
+        np.testing.assert_allclose(foot.position, data.site_xpos[site], atol=1e-12)
+        np.testing.assert_allclose(foot.rotation, data.site_xmat[site].reshape(3, 3), atol=1e-12)
+        reach = constants.EFFORT_LIMITS[4:6] / (state.mass * GRAVITY)  # ankle pitch, roll
+        body = model.body(constants.FOOT_BODIES[side]).id
+        local = (foot.cop_corners - data.xpos[body]) @ data.xmat[body].reshape(3, 3)
+        for k, corner in enumerate(("fl", "fr", "rl", "rr")):
+            corner_site = model.site(f"{name}_foot_{corner}").id
+            corner_jac = np.zeros((3, model.nv))
+            mujoco.mj_jacSite(model, data, corner_jac, None, corner_site)
+            np.testing.assert_allclose(foot.corner_jacobians[k], corner_jac, atol=1e-12)
+            np.testing.assert_allclose(foot.corners[k], data.site_xpos[corner_site], atol=1e-12)
+            site_pos = model.site_pos[corner_site]
+            np.testing.assert_allclose(local[k], [*np.clip(site_pos[:2], -reach, reach),
+                                                  site_pos[2]], atol=1e-12)
+        position, jacobian, corner_jacobians = kept[side]
+        np.testing.assert_array_equal(first.feet[side].position, position)
+        np.testing.assert_array_equal(first.feet[side].jacobian, jacobian)
+        np.testing.assert_array_equal(first.feet[side].corner_jacobians, corner_jacobians)
+    pelvis = model.body(constants.PELVIS_BODY).id
+    np.testing.assert_allclose(state.pelvis_angvel, data.xmat[pelvis].reshape(3, 3)
+                               @ data.qvel[3:6], atol=1e-10)
+
+
 def test_standing_contacts_are_the_soles(model):
     """Under the QP, standing still: the sole forces carry the weight, nothing else touches."""
     controller = BalanceController()
@@ -134,6 +171,58 @@ def test_qp_solution_obeys_the_dynamics_and_the_contact_model(model):
         foot = state.feet[side]
         acc = foot.jacobian @ sol.qacc + foot.bias_acc
         np.testing.assert_allclose(acc, -cfg.contact_kd * foot.velocity, atol=1e-4)
+
+
+def _reference_problem(qp: WholeBodyQP, state, tasks: list[Task], stance: tuple[bool, bool]):
+    """The QP of the module docstring assembled the straightforward way (block by block,
+    one corner at a time): (H, g, A, b, C, l, u, l_box, u_box)."""
+    cfg, nv = qp.cfg, qp.nv
+    g_map = np.hstack([state.feet[s].corner_jacobians[k].T @ qp.basis
+                       for s in (0, 1) if stance[s] for k in range(4)])
+    nf = g_map.shape[1]
+    weights = [np.broadcast_to(np.asarray(t.weight, float), t.target.shape) for t in tasks]
+    jtj = sum(t.jacobian.T @ (w[:, None] * t.jacobian) for t, w in zip(tasks, weights,
+                                                                       strict=True))
+    jtb = sum(t.jacobian.T @ (w * t.target) for t, w in zip(tasks, weights, strict=True))
+    hess = np.block([[jtj + cfg.w_qacc * np.eye(nv), np.zeros((nv, nf))],
+                     [np.zeros((nf, nv)), cfg.w_force * np.eye(nf)]])
+    feet = [state.feet[s] for s in (0, 1) if stance[s]]
+    a_eq = np.vstack([np.hstack([state.mass_matrix[:6], -g_map[:6]])]
+                     + [np.hstack([f.jacobian, np.zeros((6, nf))]) for f in feet])
+    b_eq = np.concatenate([-state.bias[:6]]
+                          + [-f.bias_acc - cfg.contact_kd * f.velocity for f in feet])
+    c_in = np.hstack([state.mass_matrix[6:], -g_map[6:]])
+    tau_max = constants.EFFORT_LIMITS * cfg.torque_limit_scale
+    q, qd, horizon = state.qpos[7:], state.qvel[6:], cfg.limit_horizon
+    box = [np.concatenate([np.full(6, sign * 1e10), 2.0 * (limit - q - qd * horizon) / horizon**2,
+                           np.full(nf, bound)])
+           for sign, limit, bound in ((-1, qp.q_lo, 0.0), (1, qp.q_hi, cfg.max_corner_force))]
+    return (hess, np.concatenate([-jtb, np.zeros(nf)]), a_eq, b_eq, c_in,
+            -tau_max - state.bias[6:], tau_max - state.bias[6:], *box)
+
+
+def test_qp_problem_is_the_formula_of_the_module_docstring(model):
+    """The problem assembled in the per-stance arrays kept between ticks equals the
+    straightforward assembly, tick after tick and after a tick with a NaN task."""
+    reader = StateReader(model)
+    qp = WholeBodyQP(model.nv, default_config().qp, model.jnt_range[1:])
+    qp.recorder = []
+    rng = np.random.default_rng(7)
+    for seed, stance in enumerate([(True, True), (True, False), (True, True), (False, True),
+                                   (True, True)]):
+        state = reader.read(_moving_data(model, seed=10 + seed))
+        tasks = [Task("a", rng.normal(size=(6, model.nv)), rng.normal(size=6), 3.0),
+                 Task("b", rng.normal(size=(4, model.nv)), rng.normal(size=4),
+                      rng.uniform(0.5, 2.0, 4))]
+        if seed == 2:
+            qp.solve(state, [Task("nan", tasks[0].jacobian, np.full(6, np.nan), 1.0)], stance)
+        qp.solve(state, tasks, stance)
+        problem = qp.recorder[-1]
+        assert problem.stance == stance
+        for got, want in zip(problem.args(), _reference_problem(qp, state, tasks, stance),
+                             strict=True):
+            np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-9)
+    assert len(qp.recorder) == 5  # the NaN problem never reached the solver
 
 
 def test_pyramid_basis_edges_lie_on_the_cone():

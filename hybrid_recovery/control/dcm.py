@@ -18,6 +18,7 @@ r_cmp,des = ξ + k (ξ − ξ_ref).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -52,9 +53,9 @@ class DcmCommand:
     hip_offset: float
 
 
-def _cmp_shift(ldot: np.ndarray, fz: float) -> np.ndarray:
+def _cmp_shift(ldot: tuple[float, float], fz: float) -> tuple[float, float]:
     """r_cmp − r_cop = (L̇_y, −L̇_x) / F_z [m]."""
-    return np.array([ldot[1], -ldot[0]]) / fz
+    return ldot[1] / fz, -ldot[0] / fz
 
 
 def hip_reach(omega: float, fz: float, cfg: DcmConfig) -> float:
@@ -100,35 +101,50 @@ def dcm_command(
     Returns:
         The tick's :class:`DcmCommand`.
     """
-    height = max(float(com[2]), 0.1)
-    omega = float(np.sqrt(GRAVITY / height))
-    xi = com[:2] + com_vel[:2] / omega
-    r_des = np.asarray(cmp_ref) + (1.0 + cfg.k_xi) * (xi - np.asarray(xi_ref))
-    acc_z = cfg.height_kp * (height_ref - com[2]) - cfg.height_kd * com_vel[2]
+    # Two-vectors as float pairs: per tick, NumPy calls on (2,) arrays cost more than the
+    # arithmetic (the same IEEE operations, so the same numbers).
+    cx, cy, cz = np.asarray(com, float).tolist()
+    vx, vy, vz = np.asarray(com_vel, float).tolist()
+    lx, ly, lz = np.asarray(angular_momentum, float).tolist()
+    ref_x, ref_y = np.asarray(xi_ref, float).tolist()
+    rcmp_x, rcmp_y = np.asarray(cmp_ref, float).tolist()
+    height = max(cz, 0.1)
+    omega = math.sqrt(GRAVITY / height)
+    xi = (cx + vx / omega, cy + vy / omega)
+    gain = 1.0 + cfg.k_xi
+    r_des = (rcmp_x + gain * (xi[0] - ref_x), rcmp_y + gain * (xi[1] - ref_y))
+    acc_z = cfg.height_kp * (height_ref - cz) - cfg.height_kd * vz
     fz = mass * max(GRAVITY + acc_z, 0.2 * GRAVITY)
     region = shrink(support, cfg.cop_margin)
     cop = closest_point(r_des, region)
-    delta = r_des - cop
-    hip_offset = float(np.linalg.norm(delta))
-    l_xy = np.asarray(angular_momentum[:2], dtype=float)
+    dx, dy = r_des[0] - float(cop[0]), r_des[1] - float(cop[1])
+    hip_offset = math.sqrt(dx * dx + dy * dy)
     if hip_offset > cfg.hip_threshold:
-        ldot = fz * np.array([-delta[1], delta[0]])
-        ldot = _bounded(ldot, cfg.max_angular_momentum_rate)
-        l_norm = np.linalg.norm(l_xy)
-        if l_norm >= cfg.max_angular_momentum and ldot @ l_xy > 0.0:
-            unit = l_xy / l_norm
-            ldot = ldot - (ldot @ unit) * unit
+        ldot = _bounded((fz * -dy, fz * dx), cfg.max_angular_momentum_rate)
+        l_norm = math.sqrt(lx * lx + ly * ly)
+        if l_norm >= cfg.max_angular_momentum and ldot[0] * lx + ldot[1] * ly > 0.0:
+            ux, uy = lx / l_norm, ly / l_norm
+            along = ldot[0] * ux + ldot[1] * uy
+            ldot = (ldot[0] - along * ux, ldot[1] - along * uy)
     else:
-        ldot = _bounded(-cfg.angular_momentum_damping * l_xy, cfg.max_angular_momentum_rate)
-        cop = closest_point(r_des - _cmp_shift(ldot, fz), region)
-    cmp = cop + _cmp_shift(ldot, fz)
-    com_acc = np.array([*(omega**2 * (com[:2] - cmp)), acc_z])
-    ldot3 = np.array([ldot[0], ldot[1], -cfg.angular_momentum_damping * angular_momentum[2]])
-    return DcmCommand(capture_point=xi, omega=omega, cmp_desired=r_des, cop=cop, cmp=cmp,
-                      com_acc=com_acc, angular_momentum_rate=ldot3, hip_offset=hip_offset)
+        damping = -cfg.angular_momentum_damping
+        ldot = _bounded((damping * lx, damping * ly), cfg.max_angular_momentum_rate)
+        sx, sy = _cmp_shift(ldot, fz)
+        cop = closest_point((r_des[0] - sx, r_des[1] - sy), region)
+    sx, sy = _cmp_shift(ldot, fz)
+    cmp = (float(cop[0]) + sx, float(cop[1]) + sy)
+    omega2 = omega**2
+    com_acc = np.array([omega2 * (cx - cmp[0]), omega2 * (cy - cmp[1]), acc_z])
+    ldot3 = np.array([ldot[0], ldot[1], -cfg.angular_momentum_damping * lz])
+    return DcmCommand(capture_point=np.array(xi), omega=omega, cmp_desired=np.array(r_des),
+                      cop=cop, cmp=np.array(cmp), com_acc=com_acc, angular_momentum_rate=ldot3,
+                      hip_offset=hip_offset)
 
 
-def _bounded(vec: np.ndarray, bound: float) -> np.ndarray:
+def _bounded(vec: tuple[float, float], bound: float) -> tuple[float, float]:
     """vec scaled down to ‖vec‖ ≤ bound."""
-    norm = np.linalg.norm(vec)
-    return vec if norm <= bound else vec * (bound / norm)
+    norm = math.sqrt(vec[0] * vec[0] + vec[1] * vec[1])
+    if norm <= bound:
+        return vec
+    scale = bound / norm
+    return vec[0] * scale, vec[1] * scale

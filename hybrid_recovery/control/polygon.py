@@ -9,6 +9,7 @@ of one control tick they are ~10× faster than the NumPy versions, which matters
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -18,61 +19,80 @@ def convex_hull(points: np.ndarray) -> np.ndarray:
     pts = sorted(set(map(tuple, np.asarray(points, dtype=float)[:, :2].tolist())))
     if len(pts) <= 2:
         return np.array(pts, dtype=float).reshape(-1, 2)
+    return np.array(_half_hull(pts)[:-1] + _half_hull(pts[::-1])[:-1])
 
-    def half(seq):
-        hull: list = []
-        for p in seq:
-            while len(hull) >= 2 and ((hull[-1][0] - hull[-2][0]) * (p[1] - hull[-2][1]) - (
-                    hull[-1][1] - hull[-2][1]) * (p[0] - hull[-2][0])) <= 1e-12:
+
+def _half_hull(points: list) -> list:
+    """One chain of the monotone-chain hull: drops each last point that makes no strict
+    left turn (cross product ≤ 1e-12)."""
+    hull: list = []
+    for point in points:
+        px, py = point
+        while len(hull) >= 2:
+            (ox, oy), (ax, ay) = hull[-2], hull[-1]
+            if (ax - ox) * (py - oy) - (ay - oy) * (px - ox) <= 1e-12:
                 hull.pop()
-            hull.append(p)
-        return hull
+            else:
+                break
+        hull.append(point)
+    return hull
 
-    return np.array(half(pts)[:-1] + half(pts[::-1])[:-1])
+
+def _edges(poly: list) -> zip:
+    """(a, b) of each edge of a vertex list, in order, the last one closing the polygon."""
+    return zip(poly, poly[1:] + poly[:1], strict=True)
 
 
-def _segment(px: float, py: float, ax: float, ay: float, bx: float, by: float):
-    """Closest point of [a, b] to p and its squared distance."""
-    ex, ey = bx - ax, by - ay
-    length2 = ex * ex + ey * ey
-    t = 0.0 if length2 < 1e-18 else min(max(((px - ax) * ex + (py - ay) * ey) / length2, 0.0),
-                                        1.0)
-    cx, cy = ax + t * ex, ay + t * ey
-    return cx, cy, (px - cx) ** 2 + (py - cy) ** 2
+def _edge_distance(px: float, py: float, poly: list) -> float:
+    """max over the edges (of length > 1e-12) of p's distance beyond the edge's line,
+    −∞ without such edges: ≤ 0 iff p lies in a CCW polygon of ≥ 3 vertices, and then
+    −(distance to the nearest edge)."""
+    inside = -math.inf
+    for (ax, ay), (bx, by) in _edges(poly):
+        ex, ey = bx - ax, by - ay
+        length = math.hypot(ex, ey)
+        if length > 1e-12:
+            inside = max(inside, (ey * (px - ax) - ex * (py - ay)) / length)
+    return inside
+
+
+def _nearest(px: float, py: float, poly: list) -> tuple[float, float, float]:
+    """Closest point c of the polygon's boundary to p and ‖p − c‖² (the first vertex and ∞
+    when no distance is a number): on each edge c = a + t (b − a), t ∈ [0, 1]."""
+    best = (poly[0][0], poly[0][1], math.inf)
+    for (ax, ay), (bx, by) in _edges(poly):
+        ex, ey = bx - ax, by - ay
+        length2 = ex * ex + ey * ey
+        t = 0.0 if length2 < 1e-18 else min(max(((px - ax) * ex + (py - ay) * ey) / length2,
+                                                0.0), 1.0)
+        cx, cy = ax + t * ex, ay + t * ey
+        dist2 = (px - cx) ** 2 + (py - cy) ** 2
+        if dist2 < best[2]:
+            best = (cx, cy, dist2)
+    return best
 
 
 def signed_distance_scalar(point: np.ndarray, polygon: np.ndarray) -> float:
     """d(p, C): −(distance to the nearest edge) inside, distance to C outside [m]."""
     px, py = float(point[0]), float(point[1])
     poly = np.asarray(polygon, dtype=float).tolist()
-    k = len(poly)
-    best = math.inf
-    inside = -math.inf
-    for i in range(k):
-        ax, ay = poly[i]
-        bx, by = poly[(i + 1) % k]
-        best = min(best, _segment(px, py, ax, ay, bx, by)[2])
-        length = math.hypot(bx - ax, by - ay)
-        if length > 1e-12:
-            inside = max(inside, ((by - ay) * (px - ax) - (bx - ax) * (py - ay)) / length)
-    if k >= 3 and inside <= 0.0:
-        return inside
-    return math.sqrt(best)
+    if len(poly) >= 3:
+        inside = _edge_distance(px, py, poly)
+        if inside <= 0.0:
+            return inside
+    return math.sqrt(_nearest(px, py, poly)[2]) if poly else math.inf
 
 
-def closest_point(point: np.ndarray, polygon: np.ndarray) -> np.ndarray:
+def closest_point(point: np.ndarray | Sequence[float], polygon: np.ndarray) -> np.ndarray:
     """argmin_{x ∈ C} ‖x − p‖ (p itself when p ∈ C), shape (2,) [m]."""
     p = np.asarray(point, dtype=float)
-    poly = np.asarray(polygon, dtype=float)
-    if len(poly) >= 3 and signed_distance_scalar(p, poly) <= 0.0:
-        return p.copy()
+    verts = np.asarray(polygon, dtype=float).tolist()
     px, py = float(p[0]), float(p[1])
-    verts = poly.tolist()
-    best = (verts[0][0], verts[0][1], math.inf)
-    for i in range(len(verts)):
-        cand = _segment(px, py, *verts[i], *verts[(i + 1) % len(verts)])
-        if cand[2] < best[2]:
-            best = cand
+    if len(verts) >= 3 and _edge_distance(px, py, verts) <= 0.0:
+        return p.copy()
+    best = _nearest(px, py, verts)
+    if len(verts) >= 3 and math.sqrt(best[2]) <= 0.0:  # on the boundary
+        return p.copy()
     return np.array(best[:2])
 
 
@@ -91,8 +111,7 @@ def shrink(polygon: np.ndarray, margin: float) -> np.ndarray:
     if k < 3:
         return np.array([[cx, cy]])
     lines = []  # edge i: n_i · x = o_i, n_i the outward unit normal
-    for i in range(k):
-        (ax, ay), (bx, by) = verts[i], verts[(i + 1) % k]
+    for (ax, ay), (bx, by) in _edges(verts):
         length = math.hypot(bx - ax, by - ay)
         if length < 1e-12:
             continue
@@ -107,8 +126,12 @@ def shrink(polygon: np.ndarray, margin: float) -> np.ndarray:
             return np.array([[cx, cy]])
         out.append(((o0 * n1y - n0y * o1) / det, (n0x * o1 - o0 * n1x) / det))
     for nx, ny, o in lines:  # collapsed: the centre or a vertex outside an offset edge
-        if nx * cx + ny * cy > o or any(nx * x + ny * y > o + 1e-9 for x, y in out):
+        if nx * cx + ny * cy > o:
             return np.array([[cx, cy]])
+        limit = o + 1e-9
+        for x, y in out:
+            if nx * x + ny * y > limit:
+                return np.array([[cx, cy]])
     return np.array(out)
 
 

@@ -134,8 +134,12 @@ class StateReader:
         local = np.array([[model.site_pos[c] for c in sites] for sites in self._corner_sites])
         local[..., :2] = np.clip(local[..., :2], -reach, reach)
         self._cop_local = local  # (2, 4, 3) in the foot body frame
-        self._mass = np.zeros((nv, nv))
-        self._bias = np.zeros(nv)
+        self._corner_index = np.array(self._corner_sites)  # (2, 4) site ids
+        self._geom_body = model.geom_bodyid.tolist()
+        self._nv = nv
+        d = self.data  # views of its arrays, kept (each attribute access makes a new one)
+        self._qpos, self._qvel, self._xpos, self._xmat = d.qpos, d.qvel, d.xpos, d.xmat
+        self._site_xpos, self._site_xmat = d.site_xpos, d.site_xmat
 
     def read(self, data: mujoco.MjData) -> RobotState:
         """The state of ``data`` (its qpos, qvel and contact list).
@@ -144,32 +148,36 @@ class StateReader:
             data: Simulation data; only ``qpos``, ``qvel`` and ``contact`` are read.
 
         Returns:
-            A fresh :class:`RobotState`.
+            A fresh :class:`RobotState` (no array is shared with an earlier one).
         """
-        m, d = self.model, self.data
-        d.qpos[:] = data.qpos
-        d.qvel[:] = data.qvel
+        m, d, nv = self.model, self.data, self._nv
+        self._qpos[:] = data.qpos
+        self._qvel[:] = data.qvel
         mujoco.mj_kinematics(m, d)
         mujoco.mj_comPos(m, d)
         mujoco.mj_crb(m, d)
         mujoco.mj_comVel(m, d)
-        mujoco.mj_fullM(m, d, self._mass)
-        mujoco.mj_rne(m, d, 0, self._bias)
-        rot = d.xmat[self._pelvis].reshape(3, 3).copy()
-        cmm, drift, com, momentum = self._centroidal(rot, d.qpos, d.qvel)
-        jac_pelvis = np.zeros((3, m.nv))
-        mujoco.mj_jacBody(m, d, None, jac_pelvis, self._pelvis)
-        jdot_pelvis = np.zeros((3, m.nv))
-        mujoco.mj_jacDot(m, d, None, jdot_pelvis, d.xpos[self._pelvis], self._pelvis)
+        mass_matrix, bias = np.empty((nv, nv)), np.empty(nv)
+        mujoco.mj_fullM(m, d, mass_matrix)  # writes every entry
+        mujoco.mj_rne(m, d, 0, bias)
+        qpos, qvel = self._qpos.copy(), self._qvel.copy()
+        rot = self._xmat[self._pelvis].reshape(3, 3).copy()
+        cmm, drift, com, momentum = self._centroidal(rot, qpos, qvel)
+        # J_ω, J̇_ω of the pelvis (rows 0:6), then J, J̇ of each sole (6:18, 18:30): all their
+        # products with q̇ in one call, six rows at a time
+        rates = np.empty((30, nv))
+        mujoco.mj_jacBody(m, d, None, rates[0:3], self._pelvis)
+        mujoco.mj_jacDot(m, d, None, rates[3:6], self._xpos[self._pelvis], self._pelvis)
+        self._sole_jacobians(rates[6:30])
+        products = (rates.reshape(5, 6, nv) @ qvel).reshape(30)
         forces, non_foot = self._contacts(data)
-        feet = (self._foot(0, forces[0]), self._foot(1, forces[1]))
         return RobotState(
-            qpos=d.qpos.copy(), qvel=d.qvel.copy(), mass_matrix=self._mass.copy(),
-            bias=self._bias.copy(), cmm=cmm, cmm_drift=drift, com=com,
-            com_vel=momentum[:3] / self.mass, angular_momentum=momentum[3:],
-            pelvis_rotation=rot, pelvis_angvel=jac_pelvis @ d.qvel,
-            pelvis_jacobian=jac_pelvis, pelvis_bias_acc=jdot_pelvis @ d.qvel, feet=feet,
-            non_foot_contact=non_foot, mass=self.mass,
+            qpos=qpos, qvel=qvel, mass_matrix=mass_matrix, bias=bias, cmm=cmm,
+            cmm_drift=drift, com=com, com_vel=momentum[:3] / self.mass,
+            angular_momentum=momentum[3:], pelvis_rotation=rot, pelvis_angvel=products[0:3],
+            pelvis_jacobian=rates[0:3], pelvis_bias_acc=products[3:6],
+            feet=self._feet(forces, rates[6:30], products[6:30]), non_foot_contact=non_foot,
+            mass=self.mass,
         )
 
     def _centroidal(self, rot: np.ndarray, qpos: np.ndarray, qvel: np.ndarray):
@@ -178,48 +186,66 @@ class StateReader:
         q = qpos[self._q_index]
         v = qvel.copy()
         v[0:3] = rot.T @ qvel[0:3]
-        a = np.zeros_like(v)
-        a[0:3] = -np.cross(qvel[3:6], v[0:3])
+        # a_lin = −ω × v_lin (the free flyer's frame turns), in floats (np.cross is slow)
+        (w0, w1, w2), (v0, v1, v2) = qvel[3:6].tolist(), v[0:3].tolist()
+        a = np.zeros(len(v))
+        a[0:3] = (-(w1 * v2 - w2 * v1), -(w2 * v0 - w0 * v2), -(w0 * v1 - w1 * v0))
         cmm = pin.ccrba(model, data, q, v).copy()
         cmm[:, 0:3] = cmm[:, 0:3] @ rot.T
         momentum = data.hg.vector.copy()
         drift = pin.computeCentroidalMomentumTimeVariation(model, data, q, v, a).vector.copy()
         return cmm, drift, data.com[0].copy(), momentum
 
-    def _foot(self, side: int, normal_force: float) -> FootState:
+    def _sole_jacobians(self, rates: np.ndarray) -> None:
+        """J (rows 0:6) and J̇ (rows 6:12) of the left sole, then of the right, into
+        ``rates`` (24, nv)."""
         m, d = self.model, self.data
-        site = self._foot_sites[side]
-        jac = np.zeros((6, m.nv))
-        mujoco.mj_jacSite(m, d, jac[3:], jac[:3], site)
-        jdot = np.zeros((6, m.nv))
-        pos = d.site_xpos[site].copy()
-        mujoco.mj_jacDot(m, d, jdot[3:], jdot[:3], pos, self._foot_bodies[side])
-        corners = np.empty((4, 3))
-        corner_jac = np.empty((4, 3, m.nv))
-        for k, cid in enumerate(self._corner_sites[side]):
-            corners[k] = d.site_xpos[cid]
-            mujoco.mj_jacSite(m, d, corner_jac[k], None, cid)
-        body = self._foot_bodies[side]
-        cop_corners = d.xpos[body] + self._cop_local[side] @ d.xmat[body].reshape(3, 3).T
-        return FootState(
-            position=pos, rotation=d.site_xmat[site].reshape(3, 3).copy(),
-            velocity=jac @ d.qvel, jacobian=jac, bias_acc=jdot @ d.qvel, corners=corners,
-            corner_jacobians=corner_jac, cop_corners=cop_corners, normal_force=normal_force,
-        )
+        for side in (0, 1):
+            jac, jdot = rates[12 * side : 12 * side + 6], rates[12 * side + 6 : 12 * side + 12]
+            site = self._foot_sites[side]
+            mujoco.mj_jacSite(m, d, jac[3:], jac[:3], site)
+            mujoco.mj_jacDot(m, d, jdot[3:], jdot[:3], self._site_xpos[site],
+                             self._foot_bodies[side])
+
+    def _feet(self, forces: list[float], rates: np.ndarray, products: np.ndarray
+              ) -> tuple[FootState, FootState]:
+        """Both soles' states from their J, J̇ (``rates`` (24, nv), see
+        :meth:`_sole_jacobians`) and those times q̇ (``products`` (24,))."""
+        m, d = self.model, self.data
+        position = self._site_xpos[self._foot_sites]
+        rotation = self._site_xmat[self._foot_sites].reshape(2, 3, 3)
+        corners = self._site_xpos[self._corner_index]
+        corner_jac = np.empty((2, 4, 3, self._nv))
+        for side in (0, 1):
+            for k, site in enumerate(self._corner_sites[side]):
+                mujoco.mj_jacSite(m, d, corner_jac[side, k], None, site)
+        body_rot = self._xmat[self._foot_bodies].reshape(2, 3, 3)
+        cop_corners = (self._xpos[self._foot_bodies][:, None]
+                       + self._cop_local @ body_rot.transpose(0, 2, 1))
+        feet = [FootState(
+            position=position[s], rotation=rotation[s], velocity=products[12 * s : 12 * s + 6],
+            jacobian=rates[12 * s : 12 * s + 6], bias_acc=products[12 * s + 6 : 12 * s + 12],
+            corners=corners[s], corner_jacobians=corner_jac[s], cop_corners=cop_corners[s],
+            normal_force=forces[s],
+        ) for s in (0, 1)]
+        return feet[0], feet[1]
 
     def _contacts(self, data: mujoco.MjData) -> tuple[list[float], bool]:
         """Normal force on each sole [N] and whether any other robot geom touches."""
-        m = self.model
         forces = [0.0, 0.0]
         non_foot = False
+        if data.ncon == 0:
+            return forces, non_foot
+        contact = data.contact
+        geom_body, feet, floor = self._geom_body, self._foot_bodies, self._floor_bodies
         wrench = np.zeros(6)
-        for i in range(data.ncon):
-            contact = data.contact[i]
-            bodies = (m.geom_bodyid[contact.geom[0]], m.geom_bodyid[contact.geom[1]])
-            robot_body = bodies[1] if bodies[0] in self._floor_bodies else bodies[0]
-            if robot_body in self._foot_bodies:
-                mujoco.mj_contactForce(m, data, i, wrench)
-                forces[self._foot_bodies.index(robot_body)] += wrench[0]
-            elif contact.dist < 0.0:
+        for i, ((g0, g1), dist) in enumerate(zip(contact.geom.tolist(), contact.dist.tolist(),
+                                                 strict=True)):
+            body0 = geom_body[g0]
+            robot_body = geom_body[g1] if body0 in floor else body0
+            if robot_body in feet:
+                mujoco.mj_contactForce(self.model, data, i, wrench)
+                forces[feet.index(robot_body)] += wrench[0]
+            elif dist < 0.0:
                 non_foot = True
         return forces, non_foot

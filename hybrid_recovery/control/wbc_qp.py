@@ -17,7 +17,8 @@ The joint-limit box keeps q + q̇ T + q̈ T²/2 inside the range shrunk by a mar
 limit horizon: q̈_lo = 2 (q_lo + δ − q − q̇ T)/T², likewise q̈_hi.
 
 and τ = M_a q̈ + h_a − G_a ρ. One dense proxsuite QP object per contact mode (both,
-left or right sole), warm-started from its previous solution.
+left or right sole), warm-started from its previous solution; the problem's arrays are
+kept per contact mode too, their constant blocks written once.
 
 Fallbacks (reported in :attr:`QpSolution.status`): ``"relaxed"`` — the torque rows and
 the joint-limit box are dropped and the torques clipped; ``"last_good"`` — the last good
@@ -27,6 +28,7 @@ always finite and inside ±τ_max.
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 
@@ -102,6 +104,51 @@ class QpProblem:
         return (self.hessian, self.gradient, self.a_eq, self.b_eq, self.c_in, self.lower,
                 self.upper, self.box_lower, self.box_upper)
 
+    def copy(self) -> QpProblem:
+        """The same problem in arrays of its own."""
+        return QpProblem(self.stance, *(array.copy() for array in self.args()))
+
+
+@dataclass
+class _ProblemBuffers:
+    """The arrays of one contact mode's QP, kept from tick to tick.
+
+    Attributes:
+        problem: The :class:`QpProblem`; its arrays are views of ``flat``.
+        flat: All of the problem's entries, to check them at once.
+        torque_bounds: [lower; upper] of the torque rows, a view, shape (2, 27) [N·m].
+        box: [box_lower; box_upper], a view, shape (2, nv + nf).
+        relaxed: (lower, upper, box_lower, box_upper) of the relaxed problem: torque rows
+            and joint limits free.
+        built_with: (w_ρ, ρ_max) of the constant blocks.
+    """
+
+    problem: QpProblem
+    flat: np.ndarray
+    torque_bounds: np.ndarray
+    box: np.ndarray
+    relaxed: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+    built_with: tuple[float, float]
+
+
+def _problem_buffers(stance: tuple[bool, bool], nv: int, nf: int, w_force: float,
+                    max_force: float) -> _ProblemBuffers:
+    """:class:`_ProblemBuffers` of the balance QP for a stance with ``nf`` force variables,
+    with the blocks that do not depend on the state written: H_ρρ = w_ρ I, zero couplings
+    of q̈ and ρ, g_ρ = 0, zero ρ columns of the sole rows, the free base's ±10¹⁰ box and
+    0 ≤ ρ ≤ ρ_max (``max_force`` [N])."""
+    n, n_in, n_eq = nv + nf, nv - 6, 6 + 6 * sum(stance)
+    sizes = (n * n, n, n_eq * n, n_eq, n_in * n, 2 * n_in, 2 * n)
+    flat = np.zeros(sum(sizes))
+    hess, grad, a_eq, b_eq, c_in, rows, box = np.split(flat, np.cumsum(sizes)[:-1])
+    hess, a_eq, c_in = hess.reshape(n, n), a_eq.reshape(n_eq, n), c_in.reshape(n_in, n)
+    rows, box = rows.reshape(2, n_in), box.reshape(2, n)
+    hess[nv:, nv:] = w_force * np.eye(nf)
+    box[0], box[1] = free_bounds(nv, nf, max_force)
+    problem = QpProblem(stance, hess, grad, a_eq, b_eq, c_in, rows[0], rows[1], box[0], box[1])
+    relaxed = (np.full(n_in, -_BIG), np.full(n_in, _BIG), *free_bounds(nv, nf, max_force))
+    return _ProblemBuffers(problem, flat, rows, box, relaxed, (w_force, max_force))
+
 
 def torque_rows(state: RobotState, g_map: np.ndarray, tau_max: np.ndarray
                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -127,8 +174,15 @@ def stack_tasks(tasks: list[Task]) -> tuple[np.ndarray, np.ndarray]:
     ‖(√w J) q̈ − √w b‖²."""
     rows, rhs = [], []
     for t in tasks:
-        root = np.sqrt(np.broadcast_to(np.asarray(t.weight, float), t.target.shape))
-        rows.append(root[:, None] * t.jacobian)
+        weight = t.weight
+        if isinstance(weight, (float, int)) and weight >= 0.0:  # √w as a float: fewer calls
+            root: float | np.ndarray = math.sqrt(weight)
+            rows.append(root * t.jacobian)
+        else:
+            if np.shape(weight) != t.target.shape:
+                weight = np.broadcast_to(np.asarray(weight, float), t.target.shape)
+            root = np.sqrt(weight, dtype=float)
+            rows.append(root[:, None] * t.jacobian)
         rhs.append(root * t.target)
     return np.concatenate(rows), np.concatenate(rhs)
 
@@ -167,6 +221,11 @@ class WholeBodyQP:
         # One dense QP per (stance, relaxed): the problem size depends on the stance.
         self._qps: dict[tuple[tuple[bool, bool], bool], proxsuite.proxqp.dense.QP] = {}
         self._fresh: dict[tuple[tuple[bool, bool], bool], bool] = {}
+        self._buffers: dict[tuple[bool, bool], _ProblemBuffers] = {}
+        self._limits = np.zeros((2, nv - 6))
+        self._limits_margin = math.nan
+        self._tau_bounds = np.stack([-self.tau_max, self.tau_max])
+        self._effort_low = -constants.EFFORT_LIMITS
         self.last_good: np.ndarray | None = None
         self.recorder: list[QpProblem] | None = None
         """Set to a list to record every nominal problem (benchmarks)."""
@@ -186,14 +245,32 @@ class WholeBodyQP:
         self.limit_margin = self.cfg.limit_margin
         self._qps.clear()
         self._fresh.clear()
+        self._buffers.clear()
         self.last_good = None
 
     # ------------------------------------------------------------------ problem
     def _contact_map(self, state: RobotState, stance: tuple[bool, bool]) -> np.ndarray:
-        """G = Σ J_iᵀ B over the stance corners, shape (nv, 16 · #stance)."""
-        blocks = [np.einsum("kdn,dj->nkj", state.feet[s].corner_jacobians, self.basis
-                            ).reshape(self.nv, 16) for s in (0, 1) if stance[s]]
-        return np.concatenate(blocks, axis=1)
+        """G = Σ J_iᵀ B over the stance corners, shape (nv, 16 · #stance) (a transposed
+        view: einsum into Gᵀ's own order is the faster one)."""
+        blocks = [state.feet[s].corner_jacobians for s in (0, 1) if stance[s]]
+        jacobians = blocks[0] if len(blocks) == 1 else np.concatenate(blocks)
+        return np.einsum("kdn,dj->kjn", jacobians, self.basis).reshape(-1, self.nv).T
+
+    def _problem(self, stance: tuple[bool, bool], nf: int) -> _ProblemBuffers:
+        """This stance's :func:`_problem_buffers` (rebuilt when w_ρ or ρ_max changed)."""
+        built_with = (self.cfg.w_force, self.cfg.max_corner_force)
+        buffers = self._buffers.get(stance)
+        if buffers is None or buffers.built_with != built_with:
+            buffers = _problem_buffers(stance, self.nv, nf, *built_with)
+            self._buffers[stance] = buffers
+        return buffers
+
+    def _joint_limits(self) -> np.ndarray:
+        """[q_lo + δ; q_hi − δ], shape (2, 27) [rad], recomputed when δ changes."""
+        if self.limit_margin != self._limits_margin:
+            self._limits = np.stack([self.q_lo, self.q_hi])
+            self._limits_margin = self.limit_margin
+        return self._limits
 
     def _qp(self, key: tuple[tuple[bool, bool], bool], n: int, n_eq: int):
         if key not in self._qps:
@@ -230,59 +307,61 @@ class WholeBodyQP:
         g_map = self._contact_map(state, stance)
         nf = g_map.shape[1]
         n = nv + nf
-        # Cost
+        feet = [state.feet[s] for s in (0, 1) if stance[s]]
+        buffers = self._problem(stance, nf)
+        p = buffers.problem
+        # Cost (H_ρρ, the couplings and g_ρ are constant: _problem_buffers)
         jac, b = stack_tasks(tasks)
-        hess = np.zeros((n, n))
-        hess[:nv, :nv] = jac.T @ jac + cfg.w_qacc * np.eye(nv)
-        hess[nv:, nv:] = cfg.w_force * np.eye(nf)
-        grad = np.zeros(n)
-        grad[:nv] = -jac.T @ b
+        np.matmul(jac.T, jac, out=p.hessian[:nv, :nv])
+        p.hessian.reshape(-1)[: nv * (n + 1) : n + 1] += cfg.w_qacc  # + w_q̈ I
+        np.negative(jac.T @ b, out=p.gradient[:nv])
         # Equalities: floating base, then stance soles
-        eq_rows = [np.hstack([state.mass_matrix[:6], -g_map[:6]])]
-        eq_rhs = [-state.bias[:6]]
-        for s in (0, 1):
-            if stance[s]:
-                foot = state.feet[s]
-                eq_rows.append(np.hstack([foot.jacobian, np.zeros((6, nf))]))
-                eq_rhs.append(-foot.bias_acc - cfg.contact_kd * foot.velocity)
-        a_eq, b_eq = np.concatenate(eq_rows), np.concatenate(eq_rhs)
-        # Torque rows
-        c_in, h_a, lo, hi = torque_rows(state, g_map, self.tau_max)
-        free_lo, free_hi = free_bounds(nv, nf, cfg.max_corner_force)
-        box_lo, box_hi = free_lo.copy(), free_hi.copy()
+        mass, bias = state.mass_matrix, state.bias
+        a_eq, b_eq = p.a_eq, p.b_eq
+        a_eq[:6, :nv] = mass[:6]
+        np.negative(g_map[:6], out=a_eq[:6, nv:])
+        np.negative(bias[:6], out=b_eq[:6])
+        for row, foot in zip(range(6, len(b_eq), 6), feet, strict=True):
+            a_eq[row : row + 6, :nv] = foot.jacobian
+            b_eq[row : row + 6] = -foot.bias_acc - cfg.contact_kd * foot.velocity
+        # Torque rows (those of torque_rows): τ = C x + h_a within ±τ_max
+        c_in, h_a = p.c_in, bias[6:]
+        c_in[:, :nv] = mass[6:]
+        np.negative(g_map[6:], out=c_in[:, nv:])
+        np.subtract(self._tau_bounds, h_a, out=buffers.torque_bounds)
+        # Joint-limit box on the actuated q̈ (free base and ρ: constant)
         horizon = cfg.limit_horizon
         q, qd = state.qpos[7:], state.qvel[6:]
-        box_lo[6:nv] = 2.0 * (self.q_lo - q - qd * horizon) / horizon**2
-        box_hi[6:nv] = 2.0 * (self.q_hi - q - qd * horizon) / horizon**2
+        np.divide(2.0 * (self._joint_limits() - q - qd * horizon), horizon**2,
+                  out=buffers.box[:, 6:nv])
 
         start = time.perf_counter()
-        if not all(np.isfinite(arr).all() for arr in (hess, grad, a_eq, b_eq, c_in, lo, hi,
-                                                       box_lo, box_hi)):
-            return self.fallback(state)  # never hand NaN or inf to the solver
+        # never hand NaN or inf to the solver (a finite sum: no NaN or inf in any entry)
+        if not math.isfinite(buffers.flat.sum()) and not np.isfinite(buffers.flat).all():
+            return self.fallback(state)
         if self.recorder is not None:
-            self.recorder.append(QpProblem(stance, hess, grad, a_eq, b_eq, c_in, lo, hi,
-                                           box_lo, box_hi))
+            self.recorder.append(p.copy())
+        args = p.args()
         for relaxed in (False, True):
             key = (stance, relaxed)
             qp = self._qp(key, n, len(b_eq))
-            lo_k, hi_k = (np.full(nv - 6, -_BIG), np.full(nv - 6, _BIG)) if relaxed else (lo, hi)
-            blo, bhi = (free_lo, free_hi) if relaxed else (box_lo, box_hi)
+            bounds = buffers.relaxed if relaxed else args[5:]
             if self._fresh[key]:
-                qp.init(hess, grad, a_eq, b_eq, c_in, lo_k, hi_k, blo, bhi)
+                qp.init(*args[:5], *bounds)
             else:
-                qp.update(hess, grad, a_eq, b_eq, c_in, lo_k, hi_k, blo, bhi)
+                qp.update(*args[:5], *bounds)
             qp.solve()
             qp.settings.initial_guess = _WARM_START
             x = qp.results.x
-            ok = qp.results.info.status == _SOLVED and np.all(np.isfinite(x))
+            ok = qp.results.info.status == _SOLVED and np.isfinite(x).all()
             self._fresh[key] = False
             if not ok:  # a failed solve spoils the warm start: next time, a cold QP
                 del self._qps[key]
             if ok:
                 solve_time = time.perf_counter() - start
-                torque = np.clip(c_in @ x + h_a, -constants.EFFORT_LIMITS,
-                                 constants.EFFORT_LIMITS)
-                if np.all(np.isfinite(torque)):
+                torque = np.minimum(np.maximum(c_in @ x + h_a, self._effort_low),
+                                    constants.EFFORT_LIMITS)
+                if np.isfinite(torque).all():
                     self.last_good = torque.copy()
                     return QpSolution(torque, x[:nv].copy(), self._forces(x[nv:], stance),
                                       "relaxed" if relaxed else "solved", solve_time,

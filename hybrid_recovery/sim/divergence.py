@@ -46,12 +46,11 @@ def divergence(data: mujoco.MjData) -> str | None:
     Returns:
         e.g. ``"MuJoCo: non-finite or huge acceleration (mjWARN_BADQACC) at DOF 1"``.
     """
-    warnings = data.warning
+    counts = data.warning.number.tolist()  # all warnings' counts in one call
     for index, name, what in _WARNINGS:
-        stat = warnings[index]
-        if stat.number > 0:
+        if counts[index] > 0:
             where = "ACTUATOR" if index == mujoco.mjtWarning.mjWARN_BADCTRL else "DOF"
-            return f"MuJoCo: {what} ({name}) at {where} {stat.lastinfo}"
+            return f"MuJoCo: {what} ({name}) at {where} {data.warning[index].lastinfo}"
     qpos, qvel = data.qpos, data.qvel
     # fast path: ‖q̇‖² ≤ MAX_SPEED² bounds every |q̇_i|; NaN fails the comparisons
     if qvel @ qvel <= MAX_SPEED**2 and math.isfinite(qpos @ qpos):
