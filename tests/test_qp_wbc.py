@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from hybrid_recovery.control import BalanceController, default_config, load_torque_model
-from hybrid_recovery.control.balance_controller import NAN_STATE_MESSAGE
+from hybrid_recovery.control.applicability import NAN_STATE_MESSAGE
 from hybrid_recovery.control.robot_state import StateReader
 from hybrid_recovery.control.rollout import standing_data
 from hybrid_recovery.control.torque_model import MODEL_MESSAGE

@@ -28,7 +28,7 @@ import time
 import mujoco
 import numpy as np
 
-from hybrid_recovery.control.applicability import NAN_STATE_MESSAGE, check_state, down_reason
+from hybrid_recovery.control.applicability import check_state, down_reason
 from hybrid_recovery.control.config import BalanceConfig, default_config
 from hybrid_recovery.control.dcm import DcmCommand, dcm_command, hip_reach
 from hybrid_recovery.control.diagnostics import Capturability, Event, Strategy, TickDiagnostics
@@ -60,8 +60,6 @@ from hybrid_recovery.control.torque_model import check_torque_model
 from hybrid_recovery.control.wbc_qp import QpSolution, Task, WholeBodyQP
 from hybrid_recovery.dynamics import GRAVITY
 from hybrid_recovery.robot import constants
-
-__all__ = ["NAN_STATE_MESSAGE", "BalanceController", "check_state"]
 
 DOUBLE_SUPPORT = "double_support"
 SWING = ("swing_left", "swing_right")
@@ -122,7 +120,7 @@ class BalanceController:
 
         Raises:
             ValueError: Not a torque model (:data:`MODEL_MESSAGE`) or a non-finite state
-                (:data:`NAN_STATE_MESSAGE`).
+                (:data:`~.applicability.NAN_STATE_MESSAGE`).
         """
         check_torque_model(model)
         check_state(data)
@@ -219,7 +217,7 @@ class BalanceController:
         """One control tick: joint torques τ, shape (27,) [N·m], motor order.
 
         Raises:
-            ValueError: On a non-finite state (:data:`NAN_STATE_MESSAGE`).
+            ValueError: On a non-finite state (:data:`~.applicability.NAN_STATE_MESSAGE`).
         """
         start = time.perf_counter()
         state, t, reason = self._begin(model, data)
