@@ -19,12 +19,12 @@ from hybrid_recovery.envs import config as env_config
 from hybrid_recovery.envs.config_values import INFINITE, RANGES
 from hybrid_recovery.envs.rise_starts import load_rises
 from hybrid_recovery.getup.contact_qp import ContactQpConfig
+from hybrid_recovery.getup.contact_tasks import ContactTaskGains
 from hybrid_recovery.getup.feasibility import FeasibilityConfig
 from hybrid_recovery.getup.kneel_move import KneelMoveConfig
 from hybrid_recovery.getup.move_executor import MoveConfig
 from hybrid_recovery.getup.push_up import PushUpConfig
 from hybrid_recovery.getup.relapse import GetupConfig
-from hybrid_recovery.getup.task_gains import ContactTaskGains
 from hybrid_recovery.getup.to_squat import ToSquatConfig
 
 CONFIGS = [FeasibilityConfig, ContactQpConfig, ContactTaskGains, PushUpConfig, ToSquatConfig,

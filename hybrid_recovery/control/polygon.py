@@ -90,10 +90,7 @@ def closest_point(point: np.ndarray | Sequence[float], polygon: np.ndarray) -> n
     px, py = float(p[0]), float(p[1])
     if len(verts) >= 3 and _edge_distance(px, py, verts) <= 0.0:
         return p.copy()
-    best = _nearest(px, py, verts)
-    if len(verts) >= 3 and math.sqrt(best[2]) <= 0.0:  # on the boundary
-        return p.copy()
-    return np.array(best[:2])
+    return np.array(_nearest(px, py, verts)[:2])
 
 
 def shrink(polygon: np.ndarray, margin: float) -> np.ndarray:

@@ -3,7 +3,7 @@
 :class:`~hybrid_recovery.getup.push_up.PushUp` and
 :class:`~hybrid_recovery.getup.to_squat.ToSquat` put these on
 :class:`~hybrid_recovery.getup.contact_qp.ContactQP`, each a weighted PD law
-(:class:`~hybrid_recovery.getup.task_gains.ContactTaskGains`) toward a reference that goes
+(:class:`ContactTaskGains`) toward a reference that goes
 from the move's start (·)₀ to its end (·)₁ along a smoothstep s(t)
 (:func:`~hybrid_recovery.getup.smoothstep.smoothstep_profile`):
 
@@ -17,13 +17,59 @@ from the move's start (·)₀ to its end (·)₁ along a smoothstep s(t)
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import mujoco
 import numpy as np
 
+from hybrid_recovery.checks import NON_NEGATIVE, Range, check_fields
 from hybrid_recovery.control.robot_state import RobotState
 from hybrid_recovery.control.wbc_qp import Task
 from hybrid_recovery.getup.contact_qp import ContactQP
-from hybrid_recovery.getup.task_gains import ContactTaskGains
+
+
+@dataclass(frozen=True)
+class ContactTaskGains:
+    """Gains and weights of the posture, pelvis and landing tasks (module docstring).
+
+    Attributes:
+        kp_posture: K_p [1/s²]. kd_posture: K_d [1/s]. w_posture: task weight.
+        kp_height: K_z [1/s²]. kd_height: D_z [1/s]. w_height: task weight.
+        kd_pelvis: D_ω, pelvis angular velocity damping [1/s]. w_pelvis: its weight.
+        kp_landing: K_l [1/s²]. kd_landing: D_l [1/s]. w_landing: weight of the landing
+            tasks.
+    """
+
+    kp_posture: float = 100.0
+    kd_posture: float = 20.0
+    w_posture: float = 1.0
+    kp_height: float = 100.0
+    kd_height: float = 20.0
+    w_height: float = 10.0
+    kd_pelvis: float = 10.0
+    w_pelvis: float = 1.0
+    kp_landing: float = 400.0
+    kd_landing: float = 40.0
+    w_landing: float = 100.0
+
+    def __post_init__(self) -> None:
+        check_gains(self)
+
+
+GAIN_RANGES: dict[str, Range] = {name: NON_NEGATIVE for name in (
+    "kp_posture", "kd_posture", "w_posture", "kp_height", "kd_height", "w_height",
+    "kd_pelvis", "w_pelvis", "kp_landing", "kd_landing", "w_landing")}
+"""Field of :class:`ContactTaskGains` → its range."""
+
+
+def check_gains(config: ContactTaskGains) -> None:
+    """Every number finite and in its range (:data:`GAIN_RANGES`).
+
+    Raises:
+        ValueError: e.g. ``ContactTaskGains.kp_posture must be >= 0, got -1.0``.
+    """
+    check_fields(config, GAIN_RANGES)
+
 
 Profile = tuple[float, float, float]
 """(s [-], ṡ [1/s], s̈ [1/s²]) of the move's smoothstep now."""

@@ -32,12 +32,16 @@ from hybrid_recovery.checks import POSITIVE, Range, check_fields
 from hybrid_recovery.control.wbc_qp import Task
 from hybrid_recovery.getup.contact_map import floor_contacts
 from hybrid_recovery.getup.contact_qp import ContactQP, ContactQpConfig, ContactQpSolution
-from hybrid_recovery.getup.contact_tasks import landing_task, pelvis_tasks, posture_task
+from hybrid_recovery.getup.contact_tasks import (
+    ContactTaskGains,
+    landing_task,
+    pelvis_tasks,
+    posture_task,
+)
 from hybrid_recovery.getup.feasibility import static_feasibility
 from hybrid_recovery.getup.ground_state import read_ground_pose
 from hybrid_recovery.getup.keyframes import KEYFRAMES
 from hybrid_recovery.getup.smoothstep import smoothstep_profile
-from hybrid_recovery.getup.task_gains import ContactTaskGains
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.limits import SafetyLimits
 from hybrid_recovery.robot.mjcf import joint_addresses

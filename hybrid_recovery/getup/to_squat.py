@@ -34,6 +34,7 @@ from hybrid_recovery.getup.contact_ik import CONTACT_KEYFRAMES, ContactIk, Conta
 from hybrid_recovery.getup.contact_map import floor_contacts
 from hybrid_recovery.getup.contact_qp import ContactQP, ContactQpConfig, ContactQpSolution
 from hybrid_recovery.getup.contact_tasks import (
+    ContactTaskGains,
     Profile,
     landing_task,
     pelvis_tasks,
@@ -41,7 +42,6 @@ from hybrid_recovery.getup.contact_tasks import (
 )
 from hybrid_recovery.getup.keyframes import HANDS_KNEES
 from hybrid_recovery.getup.smoothstep import smoothstep_profile
-from hybrid_recovery.getup.task_gains import ContactTaskGains
 from hybrid_recovery.robot import constants
 from hybrid_recovery.robot.mjcf import joint_addresses
 
