@@ -258,3 +258,27 @@ def test_cli_bench_train_takes_train_settings(capsys):
     assert figures["settings"]["torch_threads"] == 1
     assert figures["settings"]["mixed_precision"] is True
     assert figures["ratio_noise_at_start"] > 0.0  # bf16 rounding, see test_mixed_precision
+
+
+def test_qp_timing_replays_the_live_episode_recorded_apart(monkeypatch):
+    """The live figures come from an episode whose QPs are not copied for the replays
+    (the copy sat inside the timed tick); the replays solve as many QPs as it ran."""
+    from hybrid_recovery.bench import qp as bench_qp
+    from hybrid_recovery.control.wbc_qp import WholeBodyQP
+
+    recording_during_live: list[bool] = []
+    solve = WholeBodyQP.solve
+
+    def spy(self, state, tasks, stance):
+        recording_during_live.append(self.recorder is not None)
+        return solve(self, state, tasks, stance)
+
+    monkeypatch.setattr(WholeBodyQP, "solve", spy)
+    out = bench_qp.solve_timing(duration=0.3, log=lambda line: None)
+    half = len(recording_during_live) // 2
+    assert half > 0 and not any(recording_during_live[:half])
+    assert all(recording_during_live[half:])
+    assert out["live_tick"]["n"] == out["proxsuite_dense_warm"]["n"] == half
+    for name in ("live_solve", "live_tick", "proxsuite_dense_warm", "proxsuite_dense_cold",
+                 "qpsolvers_proxqp"):
+        assert 0.0 < out[name]["median_ms"] <= out[name]["p99_ms"] <= out[name]["max_ms"]

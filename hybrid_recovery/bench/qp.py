@@ -106,14 +106,18 @@ def solve_timing(push_force: float = 300.0, duration: float = 2.0,
         ``proxsuite_dense_warm``, ``proxsuite_dense_cold``, ``qpsolvers_proxqp``.
     """
     model = load_torque_model()
+    push = Push(np.array([push_force, 0.0, 0.0]), PUSH_START, PUSH_DURATION)
     controller = BalanceController()
+    result = run_episode(model, controller, duration, keep_diagnostics=True, push=push)
+    live = [d for d in result.diagnostics if d.applicable]
+    # The same episode again with every QP recorded for the replays (recording copies
+    # the problem inside the tick: kept out of the live figures above).
+    recorded = BalanceController()
     problems: list[QpProblem] = []
     data = standing_data(model)
-    controller.reset(model, data)
-    controller.qp.recorder = problems  # kept across the episode's reset
-    result = run_episode(model, controller, duration, data=data, keep_diagnostics=True,
-                         push=Push(np.array([push_force, 0.0, 0.0]), PUSH_START, PUSH_DURATION))
-    live = [d for d in result.diagnostics if d.applicable]
+    recorded.reset(model, data)
+    recorded.qp.recorder = problems  # kept across the episode's reset
+    run_episode(model, recorded, duration, data=data, push=push)
     out = {"live_solve": _stats(d.solve_time for d in live),
            "live_tick": _stats(d.tick_time for d in live),
            "proxsuite_dense_warm": _stats(_replay_warm(problems)),
