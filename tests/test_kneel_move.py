@@ -73,6 +73,34 @@ def test_planned_keyframes_hold_statically_within_the_limits(model, keyframes):
         assert check.worst_ratio < 0.5, name
 
 
+def _mirrored_leg(leg: np.ndarray) -> np.ndarray:
+    """The other leg's joints (yaw, pitch, roll, knee, ankle pitch, ankle roll) mirrored
+    in the sagittal plane: yaw and both rolls change sign."""
+    return leg * np.array([-1.0, 1.0, -1.0, 1.0, 1.0, -1.0])
+
+
+def test_keyframe_seeds_keep_each_leg_its_own_side():
+    """A leg that stays on its knee between hands and knees and the left foot's keyframe
+    keeps its hands-and-knees joints (a left leg's seed on the right leg twists the
+    stance knee by its hip yaw and rolls); keyframes on both feet are mirror-symmetric."""
+    hands_knees = TO_SQUAT_KEYFRAMES["hands_knees"][0].posture
+    left_foot = TO_SQUAT_KEYFRAMES["left_foot"][0].posture
+    np.testing.assert_allclose(left_foot[6:12], hands_knees[6:12])
+    np.testing.assert_allclose(hands_knees[6:12], _mirrored_leg(hands_knees[:6]), atol=1e-9)
+    for name in ("bear", "bear_back", "squat"):
+        q = TO_SQUAT_KEYFRAMES[name][0].posture
+        np.testing.assert_allclose(q[6:12], _mirrored_leg(q[:6]), atol=1e-9, err_msg=name)
+
+
+def test_planned_stance_knee_barely_turns_as_the_left_foot_comes_forward(model, keyframes):
+    """The IK's left-foot keyframe leaves the right (stance) leg's hip yaw, hip roll and
+    ankle roll within 0.1 rad of hands and knees."""
+    qadr = joint_addresses(model)[0]
+    before, after = keyframes["hands_knees"][qadr], keyframes["left_foot"][qadr]
+    for j in (6, 8, 11):  # right hip yaw, right hip roll, right ankle roll
+        assert abs(after[j] - before[j]) < 0.1, (j, before[j], after[j])
+
+
 def test_stages_name_known_keyframes_and_contacts():
     for stage in TO_SQUAT_STAGES:
         assert stage.keyframe in TO_SQUAT_KEYFRAMES

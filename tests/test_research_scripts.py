@@ -337,3 +337,30 @@ def test_backend_parity_probe_reports_each_pose_within_the_parity_tolerances(mon
             if line.startswith("| ") and not line.startswith("| pose")]
     assert {row.split(" | ")[0][2:] for row in rows} == set(worst)
     assert all(row.count(" / ") == 2 for row in rows)
+
+
+def test_to_squat_probe_keeps_the_hand_over_states_and_counts_per_pose(tmp_path, monkeypatch):
+    """Hand-over states are computed once and reused from the .npz (a start that never
+    reaches the to-squat is remembered as missing); squats and stands are counted per pose
+    with their intervals."""
+    module = _script("probe_to_squat")
+    asked: list[tuple[str, int]] = []
+
+    def state(pose, seed):
+        asked.append((pose, seed))
+        if seed == 2:
+            return None
+        return {"qpos": np.full(3, seed), "qvel": np.zeros(2), "time": 6.0, "time_scale": 0.85}
+
+    outcome = {0: "stood", 1: "fell", 3: "no_squat", 4: "stood"}
+    monkeypatch.setattr(module, "hand_over_state", state)
+    monkeypatch.setattr(module, "replay", lambda s, rise: outcome[int(s["qpos"][0])])
+    path = tmp_path / "states.npz"
+    out = module.probe(["kneeling"], range(4), path, workers=1)
+    assert asked == [("kneeling", s) for s in range(4)]
+    row = out["kneeling"]
+    assert (row["starts"], row["squats"], row["stood"]) == (3, 2, 1)
+    assert row["stood_interval"][0] < 1 / 3 < row["stood_interval"][1]
+    asked.clear()
+    again = module.probe(["kneeling"], range(5), path, workers=1)
+    assert asked == [("kneeling", 4)] and again["kneeling"]["starts"] == 4

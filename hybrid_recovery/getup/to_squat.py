@@ -61,7 +61,7 @@ def _pitch(angle: float) -> tuple[float, float, float, float]:
     return (float(np.cos(angle / 2)), 0.0, float(np.sin(angle / 2)), 0.0)
 
 
-_HANDS_KNEES_LEG = tuple(HANDS_KNEES[:6])
+_HANDS_KNEES_RIGHT_LEG = tuple(HANDS_KNEES[6:12])
 _CROUCH_LEG = (0.0, -1.4, 0.0, 1.4, -0.3, 0.0)
 _HANDS = ("left_hand", "right_hand")
 _RIGHT_KNEE = (*_HANDS, "right_knee", "right_toes")
@@ -80,7 +80,7 @@ def _on_hands(left: tuple[float, ...], right: tuple[float, ...]) -> np.ndarray:
 TO_SQUAT_KEYFRAMES: dict[str, tuple[ContactKeyframe, tuple[str, ...]]] = {
     "hands_knees": (CONTACT_KEYFRAMES["hands_knees"], ()),
     "left_foot": (ContactKeyframe(_on_hands((0.0, -2.4, 0.0, 1.9, -0.5, 0.0),
-                                            _HANDS_KNEES_LEG), _pitch(1.0), _LEFT_FOOT),
+                                            _HANDS_KNEES_RIGHT_LEG), _pitch(1.0), _LEFT_FOOT),
                   _LEFT_FOOT),
     "bear": (ContactKeyframe(_on_hands((0.0, -2.3, 0.0, 1.7, -0.5, 0.0),
                                        (0.0, -2.3, 0.0, 1.7, -0.5, 0.0)), _pitch(1.1), _BEAR),
