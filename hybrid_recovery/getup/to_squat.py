@@ -152,7 +152,7 @@ class ToSquatConfig:
     kp_com: float = 100.0
     kd_com: float = 20.0
     w_com: float = 1000.0
-    support_depth: float = 0.5
+    support_depth: float = 0.8
     range_factor: float = 0.9
     time_scale: float = 1.0
     gains: ContactTaskGains = field(default_factory=ContactTaskGains)
