@@ -7,11 +7,11 @@ the ground chain's push-up); that state (qpos, qvel, time, the move's pace) is k
 ``--states`` (an ``.npz``, reused when present). From each kept state the probe then
 runs :class:`hybrid_recovery.getup.to_squat.ToSquat` alone at the controller's pace,
 offers the squat to :meth:`BalanceController.rise` every 20 ms for up to 1 s after the
-move's end (as the controller does), and runs an accepted rise ``--rise`` seconds: it
-stood when the CoM is then above 0.85 m. Per pose: squats the rise accepted, stood, and
-their 95 % Wilson intervals. The replays leave out the chaos of the moves before the
-hand-over (``docs/experiments.md`` §15): a change to the to-squat or the rise is compared
-on the same states.
+move's end (the controller: every 2 ms, up to ``rise_wait``), and runs an accepted
+rise ``--rise`` seconds: it stood when the CoM is then above 0.85 m. Per pose: squats the
+rise accepted, stood, and their 95 % Wilson intervals. The replays leave out the chaos of
+the moves before the hand-over (``docs/experiments.md`` §15): a change to the to-squat or
+the rise is compared on the same states.
 
     python research/probe_to_squat.py --poses kneeling sitting supine --seeds 0:20
 """
@@ -35,7 +35,7 @@ from hybrid_recovery.getup.relapse import com_height
 from hybrid_recovery.getup.to_squat import ToSquat, ToSquatConfig
 
 _CHECK_EVERY = 10
-"""Physics steps between the rise's checks of the squat (20 ms, as the controller)."""
+"""Physics steps between the rise's checks of the squat (20 ms)."""
 
 
 class _HandOver(Exception):
