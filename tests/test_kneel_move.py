@@ -14,6 +14,7 @@ from hybrid_recovery.evaluation.trial import eval_model, start_state
 from hybrid_recovery.getup.contact_map import floor_contacts
 from hybrid_recovery.getup.contacts import FLOOR_CONTACTS, contact_points_world
 from hybrid_recovery.getup.feasibility import static_feasibility
+from hybrid_recovery.getup.keyframes import mirror
 from hybrid_recovery.getup.kneel_move import (
     KneelMoveConfig,
     is_kneeling,
@@ -73,12 +74,6 @@ def test_planned_keyframes_hold_statically_within_the_limits(model, keyframes):
         assert check.worst_ratio < 0.5, name
 
 
-def _mirrored_leg(leg: np.ndarray) -> np.ndarray:
-    """The other leg's joints (yaw, pitch, roll, knee, ankle pitch, ankle roll) mirrored
-    in the sagittal plane: yaw and both rolls change sign."""
-    return leg * np.array([-1.0, 1.0, -1.0, 1.0, 1.0, -1.0])
-
-
 def test_keyframe_seeds_keep_each_leg_its_own_side():
     """A leg that stays on its knee between hands and knees and the left foot's keyframe
     keeps its hands-and-knees joints (a left leg's seed on the right leg twists the
@@ -86,10 +81,10 @@ def test_keyframe_seeds_keep_each_leg_its_own_side():
     hands_knees = TO_SQUAT_KEYFRAMES["hands_knees"][0].posture
     left_foot = TO_SQUAT_KEYFRAMES["left_foot"][0].posture
     np.testing.assert_allclose(left_foot[6:12], hands_knees[6:12])
-    np.testing.assert_allclose(hands_knees[6:12], _mirrored_leg(hands_knees[:6]), atol=1e-9)
+    np.testing.assert_allclose(hands_knees[6:12], mirror(hands_knees)[6:12], atol=1e-9)
     for name in ("bear", "bear_back", "squat"):
         q = TO_SQUAT_KEYFRAMES[name][0].posture
-        np.testing.assert_allclose(q[6:12], _mirrored_leg(q[:6]), atol=1e-9, err_msg=name)
+        np.testing.assert_allclose(q[6:12], mirror(q)[6:12], atol=1e-9, err_msg=name)
 
 
 def test_planned_stance_knee_barely_turns_as_the_left_foot_comes_forward(model, keyframes):

@@ -17,7 +17,7 @@ from the move's start (·)₀ to its end (·)₁ along a smoothstep s(t)
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import mujoco
 import numpy as np
@@ -56,9 +56,7 @@ class ContactTaskGains:
         check_gains(self)
 
 
-GAIN_RANGES: dict[str, Range] = {name: NON_NEGATIVE for name in (
-    "kp_posture", "kd_posture", "w_posture", "kp_height", "kd_height", "w_height",
-    "kd_pelvis", "w_pelvis", "kp_landing", "kd_landing", "w_landing")}
+GAIN_RANGES: dict[str, Range] = {f.name: NON_NEGATIVE for f in fields(ContactTaskGains)}
 """Field of :class:`ContactTaskGains` → its range."""
 
 
