@@ -27,5 +27,6 @@ def test_train_refuses_an_unknown_variant(tmp_path, capsys):
     assert main(["train", "--variant", "best", "--run-dir", str(tmp_path / "run")]) == 2
     assert capsys.readouterr().err == ("error: unknown variant 'best': choose one of ['full', "
                                        "'no_capture_point', 'no_curriculum', 'no_privileged', "
-                                       "'recovery', 'recovery_rises', 'reduced']\n")
+                                       "'recovery', 'recovery_model_rises', 'recovery_rises', "
+                                       "'reduced']\n")
     assert not (tmp_path / "run").exists()

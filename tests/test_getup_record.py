@@ -65,6 +65,13 @@ def test_bad_input_messages(tmp_path):
          f"unknown pose 'flying': choose one of {list(POSES)}"),
         (lambda: record_rises("prone", 0, tmp_path / "x.npz", policy="shipped"),
          "episodes must be >= 1, got 0"),
+        (lambda: record_rises("sitting", 1, tmp_path / "x.npz", controller="qp"),
+         "unknown recording controller 'qp': one of ['hybrid', 'model']"),
+        (lambda: record_rises("sitting", 1, tmp_path / "x.npz"),
+         "the hybrid records with the policy after its hand-over: give --policy"),
+        (lambda: record_rises("sitting", 1, tmp_path / "x.npz", policy="shipped",
+                              controller="model"),
+         "the model controller runs no policy: --policy is the hybrid's"),
         (lambda: handover_map(trials=0), "trials must be >= 1, got 0"),
         (lambda: handover_map(("hovering",)),
          "unknown hand-over state 'hovering': use one of ['hands_knees', 'knee_chest', "
@@ -149,9 +156,26 @@ def test_record_refuses_a_missing_or_damaged_policy_in_one_line(tmp_path, tiny_r
     err = capsys.readouterr().err
     assert err.startswith(f"error: cannot load policy {damaged}: ") and err.count("\n") == 1
     assert not (tmp_path / "x.npz").exists()
-    with pytest.raises(SystemExit):  # a policy must be named
-        main(["getup", "record", "--pose", "sitting", "--episodes", "1", "--out", "x.npz"])
-    assert "the following arguments are required: --policy" in capsys.readouterr().err
+    # the hybrid needs a policy, the model controller runs none
+    base = ["getup", "record", "--pose", "sitting", "--episodes", "1", "--out", "x.npz"]
+    assert main(base) == 2
+    assert capsys.readouterr().err == ("error: the hybrid records with the policy after its "
+                                       "hand-over: give --policy\n")
+    assert main([*base, "--controller", "model", "--policy", "shipped"]) == 2
+    assert capsys.readouterr().err == ("error: the model controller runs no policy: --policy "
+                                       "is the hybrid's\n")
+
+
+def test_record_of_the_model_controller_names_its_moves_and_their_targets(tmp_path, risen):
+    out = record_rises("sitting", 1, tmp_path / "model.npz", duration=1.5, seed=2,
+                       controller="model")
+    assert out["kept"] == 1 and risen == []  # no policy loaded
+    rec = np.load(tmp_path / "model.npz")
+    phases = list(dict.fromkeys(rec["phase"].tolist()))
+    assert phases[0] == "settle" and len(phases) > 1
+    assert all(p.count("/") == 1 for p in phases[1:])  # <move>/<keyframe>, as the hybrid's
+    moving = np.array(["/" in p for p in rec["phase"]])
+    assert np.isfinite(rec["target"][moving]).all() and np.isnan(rec["target"][~moving]).all()
 
 
 def test_record_never_overwrites_and_writes_nothing_without_a_rise(tmp_path, tiny_run,

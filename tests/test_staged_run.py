@@ -142,6 +142,24 @@ def test_a_failed_probe_keeps_training_in_recovery(tmp_path, capsys):
             "sitting 0/1 (needs >= 100% each); next probe at iteration 3") in out
 
 
+def test_the_model_recorder_records_its_rises_without_a_probe_or_a_policy(tmp_path,
+                                                                        policies_loaded):
+    run = tmp_path / "run"
+    stages = dataclasses.replace(STAGES, recorder="model")
+    state = train_staged(run, _cfg(iterations=4, stages=stages))
+    assert state.stage == "rises" and state.probes == []
+    assert _changes(run) == [("recovery", "record"), ("record", "rises")]
+    assert state.changes[0]["iteration"] == 1  # after probe_interval iterations
+    assert state.recordings[0]["kept"] == {"sitting": [2, 2]}
+    rec = np.load(run / "rises" / "sitting.npz")
+    phases = set(rec["phase"].tolist())
+    assert "policy" not in phases and any("/" in p for p in phases)  # the model's moves
+    assert policies_loaded == []  # no policy ran, neither the run's nor the shipped one
+    meta = json.loads((run / "config.json").read_text())
+    assert meta["train_config"]["stages"]["recorder"] == "model"
+    assert load_checkpoint(run / "latest.pt")["infos"]["teacher"] is not None
+
+
 def test_stage_settings_and_state_checks(tmp_path):
     cfg = _cfg(iterations=1)
     assert stage_config(cfg, "recovery", tmp_path, STAGES) == cfg
@@ -153,6 +171,9 @@ def test_stage_settings_and_state_checks(tmp_path):
         StageConfig(rise_rate=0)
     with pytest.raises(ValueError, match="^StageConfig.probe_interval must be >= 1, got 0$"):
         StageConfig(probe_interval=0)
+    with pytest.raises(ValueError, match="^StageConfig.recorder must be 'hybrid' or 'model', "
+                                         "got 'qp'$"):
+        StageConfig(recorder="qp")
     (tmp_path / STATE_FILE).write_text("{not json")
     with pytest.raises(ValueError, match=f"^stage state {tmp_path / STATE_FILE} is damaged"):
         StageState.load(tmp_path)

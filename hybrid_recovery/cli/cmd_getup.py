@@ -19,7 +19,8 @@ def _record(args: argparse.Namespace) -> int:
     from hybrid_recovery.evaluation.getup_record import record_rises
 
     out = record_rises(args.pose, args.episodes, args.out, duration=args.duration,
-                       seed=args.seed, policy=args.policy, force=args.force)
+                       seed=args.seed, policy=args.policy, controller=args.controller,
+                       force=args.force)
     print(f"kept {out['kept']} of {out['attempted']} rises: {out['path']}")
     return 0
 
@@ -62,18 +63,23 @@ def _margins(args: argparse.Namespace) -> int:
 
 
 def _configure(p: argparse.ArgumentParser) -> None:
+    from hybrid_recovery.evaluation.getup_record import RECORDERS
     from hybrid_recovery.evaluation.handover_map import HANDOVER_STATES
     from hybrid_recovery.evaluation.scenario import MAX_NOISE
     from hybrid_recovery.sim.initial_states import POSES
 
     sub = p.add_subparsers(dest="getup_command", required=True)
-    rec = sub.add_parser("record", help="record successful hybrid rises (npz)")
+    rec = sub.add_parser("record", help="record successful rises (npz) of the hybrid or "
+                         "of the model-based half")
     rec.add_argument("--pose", required=True, choices=POSES, help="start pose")
     rec.add_argument("--episodes", type=integer(1), required=True, help="episodes to run")
-    rec.add_argument("--policy", required=True,
-                     help="the policy after the hand-over: an exported policy (directory or "
-                          "policy.onnx), a training run directory (its newest checkpoint), or "
-                          "'shipped'")
+    rec.add_argument("--controller", choices=RECORDERS, default="hybrid",
+                     help="hybrid: the ground moves, then --policy; model: the model-based "
+                          "half alone (no policy)")
+    rec.add_argument("--policy", default=None,
+                     help="the hybrid's policy after the hand-over: an exported policy "
+                          "(directory or policy.onnx), a training run directory (its newest "
+                          "checkpoint), or 'shipped'")
     rec.add_argument("--out", required=True, help=".npz file to write (.npz is added to "
                      "another suffix)")
     rec.add_argument("--force", action="store_true", help="replace an existing --out")

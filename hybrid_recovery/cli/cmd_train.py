@@ -52,6 +52,7 @@ def _configure_train(p: argparse.ArgumentParser) -> None:
     p.add_argument("--variant", default=None,
                    help="recovery_rises (the recipe in stages: recovery, its own rises "
                         "recorded, starts along them and the teacher; training/README.md) | "
+                        "recovery_model_rises (the same with the model-based half's rises) | "
                         "recovery (its first stage alone) | full (the "
                         "paper's, the default) | reduced | no_privileged | no_capture_point | "
                         "no_curriculum")

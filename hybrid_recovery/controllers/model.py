@@ -99,6 +99,19 @@ class ModelController:
         else:
             self._start_moves(model, data)
 
+    @property
+    def phase(self) -> str:
+        """What acts now: ``"settle"`` or ``"<move>/<keyframe>"`` in the ground moves (as
+        :attr:`HybridController.phase <hybrid_recovery.controllers.hybrid.HybridController.
+        phase>` names them, so recordings of both read alike), else the mode (``"qp"``,
+        ``"kneel"``, ``"push_up"``, ``"to_squat"``, ``"hold"``)."""
+        if self.mode == MOVES:
+            move = self.moves.move
+            if move is None:
+                return "settle"
+            return f"{move.name}/{move.phases[self.moves.phase].keyframe}"
+        return self.mode
+
     def _start_moves(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         self.mode = MOVES
         self.moves.reset(model, data)

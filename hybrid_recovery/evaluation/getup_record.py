@@ -1,15 +1,18 @@
-"""Recorded rises: physically valid states along successful hybrid stand-ups.
+"""Recorded rises: physically valid states along successful stand-ups.
 
 ``hybrid-recovery getup record --pose sitting --episodes N --policy P --out FILE`` runs N
 hybrid trials with the ground moves first (``GetupConfig.policy_first`` off: moves,
 policy ``P``, QP) from a start pose with the paper's initialisation noise and keeps the
 successful ones, sampled at 50 Hz up to the moment of success, in one ``.npz``, written
 whole or not at all; an existing file is replaced only when asked, and a run that keeps
-no rise writes nothing.
+no rise writes nothing. With ``--controller model`` the trials are the model-based
+half's alone (moves, push-up, hands and knees → squat, the QP's rise; no policy): the
+whole rise is then the move (no ``policy`` phase).
 
 * ``qpos`` (T, nq), ``qvel`` (T, nv): MuJoCo state;
 * ``time`` (T,) [s] from the episode start; ``episode`` (T,) its index;
-* ``phase`` (T,): ``settle``, ``<move>/<keyframe>``, ``policy`` or ``qp``;
+* ``phase`` (T,): ``settle``, ``<move>/<keyframe>``, ``policy`` or ``qp`` (the model
+  controller: its mode in place of ``policy``, e.g. ``push_up``, ``to_squat``);
 * ``target`` (T, 27) [rad]: the moves' joint targets q_ref at each sample (the servo
   targets the ground moves command, motor order), NaN where the moves do not act;
 * ``goal`` (T, 27) [rad]: the keyframe the current phase's targets move to and hold,
@@ -101,27 +104,44 @@ def npz_path(out: str | Path) -> Path:
     return out if out.suffix == ".npz" else out.with_name(out.name + ".npz")
 
 
-def record_rises(pose: str, episodes: int, out: str | Path, *, policy: str | Path,
-                 duration: float = 30.0, seed: int = 0, controller: str = "hybrid",
-                 force: bool = False) -> dict:
+RECORDERS = ("hybrid", "model")
+"""The controllers whose rises a recording keeps: the hybrid (moves, then a policy) and
+the model-based half alone."""
+
+
+def record_rises(pose: str, episodes: int, out: str | Path, *,
+                 policy: str | Path | None = None, duration: float = 30.0, seed: int = 0,
+                 controller: str = "hybrid", force: bool = False) -> dict:
     """Runs ``episodes`` trials from ``pose`` and writes the successful rises to ``out``.
 
     Args:
-        policy: the policy after the hand-over (:func:`recording_policy`): ``shipped``,
-            an exported policy, or a training run directory.
+        policy: the hybrid's policy after the hand-over (:func:`recording_policy`):
+            ``shipped``, an exported policy, or a training run directory; None with
+            ``controller="model"``, which runs none.
+        controller: one of :data:`RECORDERS`.
         force: replace an existing ``out``.
 
     Returns:
         ``{"attempted": n, "kept": k, "path": out}`` (``out`` with ``.npz``).
 
     Raises:
-        ValueError: an unknown pose, ``episodes`` < 1, ``duration`` ≤ 0, or a policy
-            that cannot be loaded.
+        ValueError: an unknown pose or controller, ``episodes`` < 1, ``duration`` ≤ 0, a
+            hybrid without a policy or a model controller with one, or a policy that
+            cannot be loaded.
         FileExistsError: ``out`` exists and ``force`` is not set (before any trial).
         OSError: ``cannot write <out>: <why>``, before any trial.
         NoRiseKept: no trial rose; nothing is written.
     """
     check_pose(pose)
+    if controller not in RECORDERS:
+        raise ValueError(f"unknown recording controller '{controller}': one of "
+                         f"{list(RECORDERS)}")
+    if controller == "hybrid" and policy is None:
+        raise ValueError("the hybrid records with the policy after its hand-over: give "
+                         "--policy")
+    if controller != "hybrid" and policy is not None:
+        raise ValueError(f"the {controller} controller runs no policy: --policy is the "
+                         f"hybrid's")
     if episodes < 1:
         raise ValueError(f"episodes must be >= 1, got {episodes}")
     if not 0.0 < duration < float("inf"):
@@ -136,9 +156,10 @@ def record_rises(pose: str, episodes: int, out: str | Path, *, policy: str | Pat
         raise OSError(f"cannot write {out}: {out.parent} is not a directory") from None
     except OSError as err:
         raise OSError(f"cannot write {out}: {err.strerror or err}") from None
+    if policy is None:
+        return _record(pose, episodes, out, duration, seed, make(controller))
     with recording_policy(policy) as path:
-        spec = controller if ":" in controller or controller != "hybrid" else f"hybrid:{path}"
-        return _record(pose, episodes, out, duration, seed, make(spec))
+        return _record(pose, episodes, out, duration, seed, make(f"hybrid:{path}"))
 
 
 def _record(pose: str, episodes: int, out: Path, duration: float, seed: int, ctrl) -> dict:

@@ -1,8 +1,11 @@
 """A staged recipe from its first iteration: train, probe the run's own rises, record
-them, train on them (:mod:`hybrid_recovery.training.stages`).
+them, train on them (:mod:`hybrid_recovery.training.stages`); or, with
+``StageConfig.recorder = "model"``, record the model-based half's rises after the first
+``probe_interval`` iterations, without a probe.
 
 Nothing of a shipped policy is read: probes and recordings run the hybrid with the
-run's newest checkpoint after the hand-over. Each stage change is written to
+run's newest checkpoint after the hand-over, or the model-based half with no policy.
+Each stage change is written to
 ``<run>/stages.json`` before the next stage's work begins, printed, and logged to
 TensorBoard (``stage/index``, ``stage/probe_<pose>``), so ``--resume`` continues in the
 stage a kill left.
@@ -24,7 +27,8 @@ from hybrid_recovery.training.runner import RUN_LOCK_HINT
 from hybrid_recovery.training.stages import STAGES, STATE_FILE, StageState, rise_files
 
 Recorder = Callable[..., dict]
-"""``record_rises``' signature: (pose, episodes, out, duration=, seed=, policy=, force=)."""
+"""``record_rises``' signature: (pose, episodes, out, duration=, seed=, policy=,
+controller=, force=)."""
 
 PROBE_SEED = 1_000_000
 """First seed of the probes' trials (a probe at iteration i uses PROBE_SEED + i × 100 on);
@@ -74,6 +78,12 @@ def _probe_hook(run_dir: Path, stages: StageConfig, state: StageState,
         if (it + 1) % stages.probe_interval:
             return
         runner.save(str(run_dir / f"model_{it}.pt"))
+        if stages.recorder == "model":  # its rises need no policy: nothing to probe
+            state.move("record", it, _env_steps(runner, it),
+                       "the model-based half's rises are recorded without a probe")
+            state.save(run_dir)
+            _log(f"stage recovery -> record at iteration {it}: the model-based half's rises")
+            raise StageEnded
         kept = probe_rises(run_dir, stages, it, recorder)
         passed = all(k >= stages.rise_rate * n for k, n in kept.values())
         steps = _env_steps(runner, it)
@@ -102,19 +112,22 @@ def _probe_hook(run_dir: Path, stages: StageConfig, state: StageState,
 
 def record_stage(run_dir: Path, stages: StageConfig, state: StageState,
                  recorder: Recorder = record_rises) -> None:
-    """Records the hybrid's rises with the run's newest checkpoint into
-    ``<run>/rises/<pose>.npz``, then moves to ``rises`` (every pose kept ≥ ``min_kept``)
-    or back to ``recovery``."""
+    """Records the rises of ``stages.recorder`` (the hybrid with the run's newest
+    checkpoint, or the model-based half) into ``<run>/rises/<pose>.npz``, then moves to
+    ``rises`` (every pose kept ≥ ``min_kept``) or back to ``recovery``."""
     it = int(load_latest(run_dir)[0]["iter"])
     files = rise_files(run_dir, stages)
+    hybrid = stages.recorder == "hybrid"
+    whose = f"with the run's policy of iteration {it}" if hybrid else "(no policy)"
     kept: dict[str, list[int]] = {}
     for pose, out in zip(stages.poses, files, strict=True):
-        _log(f"stage record: {stages.record_episodes} hybrid rises from {pose} with the "
-             f"run's policy of iteration {it}")
+        _log(f"stage record: {stages.record_episodes} {stages.recorder} rises from {pose} "
+             f"{whose}")
         Path(out).parent.mkdir(parents=True, exist_ok=True)
         try:
             got = recorder(pose, stages.record_episodes, out, duration=stages.probe_duration,
-                           seed=100 * it, policy=run_dir, force=True)
+                           seed=100 * it, policy=run_dir if hybrid else None,
+                           controller=stages.recorder, force=True)
             kept[pose] = [int(got["kept"]), int(got["attempted"])]
         except NoRiseKept:
             kept[pose] = [0, stages.record_episodes]

@@ -92,8 +92,16 @@ class StageConfig:
     """Fewest kept rises per pose for the ``rises`` stage; fewer: back to ``recovery``."""
     poses: tuple[str, ...] = ("sitting", "supine")
     """Poses whose rises are probed and recorded."""
+    recorder: str = "hybrid"
+    """Whose rises are recorded: ``hybrid`` (the ground moves, then the run's own policy,
+    recorded once a probe passes) or ``model`` (the model-based half alone: it needs no
+    policy, so nothing is probed and the rises are recorded after the first
+    ``probe_interval`` iterations)."""
 
     def __post_init__(self) -> None:
+        if self.recorder not in ("hybrid", "model"):
+            raise ValueError(f"StageConfig.recorder must be 'hybrid' or 'model', got "
+                             f"{self.recorder!r}")
         for name in ("probe_interval", "probe_episodes", "record_episodes", "min_kept"):
             if int(getattr(self, name)) < 1:
                 raise ValueError(f"StageConfig.{name} must be >= 1, got {getattr(self, name)}")

@@ -13,6 +13,10 @@ A staged run trains in three stages, each left on a measured condition:
 3. ``rises``: starts along those rises and the teacher (:data:`RISES_STAGE`) to the
    run's last iteration.
 
+With :attr:`StageConfig.recorder` ``"model"`` the recordings are the model-based half's
+(no policy): ``recovery`` then lasts :attr:`StageConfig.probe_interval` iterations with no
+probe, and ``record`` keeps the whole rise, from the ground to standing, as the move.
+
 The state (:class:`StageState`) is ``<run>/stages.json``, written atomically before
 each stage's work begins, so a run killed anywhere resumes in the stage it was in.
 """

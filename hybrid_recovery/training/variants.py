@@ -41,6 +41,8 @@ VARIANTS: dict[str, dict[str, Any]] = {
     # the recipe in three stages: it, its own rises recorded, starts along them and the
     # teacher (hybrid_recovery.training.stages)
     "recovery_rises": RECOVERY_ENV,
+    # the same stages with the model-based half's rises (no policy needed to record them)
+    "recovery_model_rises": RECOVERY_ENV,
     # the paper's ablation: all three removed together
     "reduced": {"privileged_critic": False, "rewards.use_capture_point": False,
                 "curriculum.enabled": False},
@@ -56,12 +58,19 @@ VARIANT_TRAIN: dict[str, dict[str, Any]] = {
                  "ppo.mixed_precision": False},
     "recovery_rises": {"init_std": 0.5, "max_std": 0.6, "save_interval": 25,
                        "milestone_interval": 500, "stages": StageConfig()},
+    "recovery_model_rises": {
+        "init_std": 0.5, "max_std": 0.6, "save_interval": 25, "milestone_interval": 500,
+        "stages": StageConfig(recorder="model", poses=("kneeling", "sitting", "supine"),
+                              record_episodes=16)},
 }
 """Variant name → TrainConfig settings other than the defaults (``ppo.<field>`` for PPO,
 ``teacher.<field>`` for the teacher, ``stages`` for a staged recipe whose last stage adds
 its own recorded rises and the teacher, :mod:`~hybrid_recovery.training.stages`);
 absent: the defaults. ``recovery`` keeps the float32 update its iterations were trained
-with; ``recovery_rises`` takes the faster precision of the machine."""
+with; ``recovery_rises`` takes the faster precision of the machine. ``recovery_model_rises``
+records the model-based half's rises from the kneel, sitting and supine (16 trials each,
+≥ 4 kept) after 200 iterations instead of waiting for the run's own policy to rise after
+the hybrid's hand-over."""
 
 
 def variant_overrides(name: str) -> dict[str, Any]:
