@@ -126,6 +126,26 @@ def test_a_recording_without_keyframes_is_refused_with_the_way_to_write_one(tmp_
         teacher_samples([], model, 0.3)
 
 
+def test_a_recording_without_joint_pd_moves_gives_no_samples(tmp_path, recording):
+    path, goal = recording
+    model, _ = build_scene(None, 0.005)
+    with np.load(path) as rec:
+        arrays = {k: rec[k] for k in rec.files}
+    # the model controller's rise from the kneel: its own modes, torques throughout
+    arrays["phase"] = np.where(np.char.find(arrays["phase"].astype(str), "/") >= 0, "kneel",
+                               arrays["phase"])
+    arrays["target"] = arrays["goal"] = np.full_like(goal, np.nan)
+    np.savez(tmp_path / "kneeling.npz", **arrays)
+    obs, actions = teacher_samples([path], model, 0.3)
+    both = teacher_samples([tmp_path / "kneeling.npz", path], model, 0.3)
+    np.testing.assert_array_equal(both[0], obs)
+    np.testing.assert_array_equal(both[1], actions)
+    with pytest.raises(ValueError) as err:
+        teacher_samples([tmp_path / "kneeling.npz"], model, 0.3)
+    assert str(err.value) == (f"no rise recording of {[str(tmp_path / 'kneeling.npz')]} holds "
+                              "a joint-PD ground move for the teacher")
+
+
 class LinearActor(torch.nn.Module):
     """μ = W o, read from the ``policy`` group as rsl-rl's actor does."""
 

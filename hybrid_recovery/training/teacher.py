@@ -69,9 +69,13 @@ def teacher_samples(paths: Sequence[str | Path], model: mujoco.MjModel, action_s
     Returns:
         (obs (M, 87) float32, a* (M, 27) float32), a* clipped to ±ACTION_CLIP.
 
+    A recording without joint-PD ground moves (no ``<move>/<keyframe>`` phase: the model
+    controller's rise from the kneel, on torques throughout) gives no samples.
+
     Raises:
-        ValueError: no recordings, a file without ``target`` or ``goal`` or without a
-            moving move sample; the message names the file.
+        ValueError: no recordings, a file without ``target`` or ``goal``, one with ground
+            moves but no moving move sample (the message names the file), or no sample
+            in any file.
     """
     if not paths:
         raise ValueError("the teacher needs recorded rises: set rises.files")
@@ -85,8 +89,11 @@ def teacher_samples(paths: Sequence[str | Path], model: mujoco.MjModel, action_s
                 raise ValueError(f"rise recording {path} has no {missing} (the moves' "
                                  f"targets and keyframes); {_HOW}")
             qpos, qvel, target, goal = rec["qpos"], rec["qvel"], rec["target"], rec["goal"]
-            on_move, _ = move_progress(rec["time"], rec["episode"], rec["phase"].astype(str))
+            phase = rec["phase"].astype(str)
+            on_move, _ = move_progress(rec["time"], rec["episode"], phase)
             episode = rec["episode"]
+        if not any("/" in p for p in np.unique(phase)):
+            continue  # no joint-PD ground move to imitate
         known = on_move & np.isfinite(goal).all(axis=1) & np.isfinite(target).all(axis=1)
         every = clip_action((np.nan_to_num(goal) - DEFAULT_JOINT_POS) / action_scale)
         # a_{t−1}: the previous sample's keyframe action, held ones included
@@ -105,6 +112,9 @@ def teacher_samples(paths: Sequence[str | Path], model: mujoco.MjModel, action_s
             obs.append(actor_observation(gyro[None], quat[None], q[None], dq[None],
                                          last[k][None])[0])
         actions.append(act)
+    if not obs:
+        raise ValueError(f"no rise recording of {[str(p) for p in paths]} holds a joint-PD "
+                         f"ground move for the teacher")
     return np.stack(obs).astype(np.float32), np.concatenate(actions).astype(np.float32)
 
 
