@@ -201,3 +201,26 @@ def test_only_episodes_from_the_advance_poses_count_for_the_curriculum(gated):
         ended += int(done.sum())
     assert ended >= 4
     assert len(env.curriculum._outcomes) == (ended if gated is None else 0)
+
+
+def test_episodes_started_along_a_rise_or_bridge_do_not_count_for_the_curriculum():
+    cfg = default_config()
+    cfg.num_envs, cfg.num_threads, cfg.episode_length_s = 4, 1, 0.2
+    cfg.pose_weights = {"supine": 1.0}
+    cfg.curriculum.stage1_poses = ("supine",)
+    cfg.curriculum.advance_poses = None  # every pose counts, from its own starts
+    cfg.curriculum.window = 10_000
+    env = RecoveryEnv(cfg)
+    reset = env._reset
+
+    def along_a_rise(ids):  # as RiseStarts' and the bridges' starts mark them
+        reset(ids)
+        env.start_level[ids] = 2
+
+    env._reset = along_a_rise
+    env.start_level[:] = 2
+    ended = 0
+    for _ in range(25):
+        _, _, done, _ = env.step(torch.zeros(4, env.num_actions))
+        ended += int(done.sum())
+    assert ended >= 4 and len(env.curriculum._outcomes) == 0

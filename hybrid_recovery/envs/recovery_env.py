@@ -558,8 +558,11 @@ class RecoveryEnv(VecEnv):
 
     def _count_windows(self, ids: np.ndarray) -> None:
         """Adds the outcomes of the not yet counted episodes ``ids``:
-        assisted episodes anneal the assistance, the others (of ``advance_poses``) count
-        for the curriculum, which waits while every pose is assisted."""
+        assisted episodes anneal the assistance, the others (of ``advance_poses``, from the
+        pose's own starts) count for the curriculum, which waits while every pose is
+        assisted. Episodes started along a recorded rise or a bridge are their level's
+        (:meth:`_count_starts`), not the curriculum's: a rise's last stretch stands almost
+        up already."""
         ids = ids[~self._window_counted[ids]]
         self._window_counted[ids] = True
         if not len(ids):
@@ -568,6 +571,7 @@ class RecoveryEnv(VecEnv):
         gated = self.cfg.curriculum.advance_poses
         scored = np.ones(len(ids), dtype=bool) if gated is None else \
             np.isin(self._pose_names[self.start_pose[ids]], gated)
+        scored &= self.start_level[ids] < 0  # the pose's own starts
         if self.assist.active and self.cfg.assist.poses is None:
             self.assist.record(outcome[scored])
         else:
