@@ -121,10 +121,7 @@ class HybridController:
     def phase(self) -> str:
         """What acts now: ``"settle"``, ``"<move>/<keyframe>"``, ``"policy"`` or ``"qp"``."""
         if self.mode == MOVES:
-            move = self.moves.move
-            if move is None:
-                return "settle"
-            return f"{move.name}/{move.phases[self.moves.phase].keyframe}"
+            return self.moves.label
         return self.supervised.supervisor.mode
 
     def reset(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:

@@ -101,16 +101,10 @@ class ModelController:
 
     @property
     def phase(self) -> str:
-        """What acts now: ``"settle"`` or ``"<move>/<keyframe>"`` in the ground moves (as
-        :attr:`HybridController.phase <hybrid_recovery.controllers.hybrid.HybridController.
-        phase>` names them, so recordings of both read alike), else the mode (``"qp"``,
-        ``"kneel"``, ``"push_up"``, ``"to_squat"``, ``"hold"``)."""
-        if self.mode == MOVES:
-            move = self.moves.move
-            if move is None:
-                return "settle"
-            return f"{move.name}/{move.phases[self.moves.phase].keyframe}"
-        return self.mode
+        """What acts now: in the ground moves their :attr:`~GroundMoves.label` (``"settle"``
+        or ``"<move>/<keyframe>"``, as the hybrid's), else the mode (``"qp"``, ``"kneel"``,
+        ``"push_up"``, ``"to_squat"``, ``"hold"``)."""
+        return self.moves.label if self.mode == MOVES else self.mode
 
     def _start_moves(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         self.mode = MOVES

@@ -163,6 +163,14 @@ class GroundMoves:
         to the ranges × ``range_factor``); q_ref when no move is in progress."""
         return self._to if self.move is not None else self.q_ref
 
+    @property
+    def label(self) -> str:
+        """``"settle"`` before a move is planned, else ``"<move>/<keyframe>"`` of the
+        current phase (the ``phase`` of a recorded rise)."""
+        if self.move is None:
+            return "settle"
+        return f"{self.move.name}/{self.move.phases[self.phase].keyframe}"
+
     def __call__(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
         """τ (27,) [N·m]: the PD law on :meth:`targets` (on a torque-controlled model)."""
         q_ref = self.targets(model, data)

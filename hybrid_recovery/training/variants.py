@@ -68,9 +68,9 @@ VARIANT_TRAIN: dict[str, dict[str, Any]] = {
 its own recorded rises and the teacher, :mod:`~hybrid_recovery.training.stages`);
 absent: the defaults. ``recovery`` keeps the float32 update its iterations were trained
 with; ``recovery_rises`` takes the faster precision of the machine. ``recovery_model_rises``
-records the model-based half's rises from the kneel, sitting and supine (16 trials each,
-≥ 4 kept) after 200 iterations instead of waiting for the run's own policy to rise after
-the hybrid's hand-over."""
+records the model-based half's rises from the kneel, sitting and supine after the first
+probe interval instead of waiting for the run's own policy to rise after the hybrid's
+hand-over."""
 
 
 def variant_overrides(name: str) -> dict[str, Any]:
