@@ -16,7 +16,7 @@ from hybrid_recovery.robot import constants
 from hybrid_recovery.training.checkpoint import check_state_shapes, load_checkpoint
 
 CHECKPOINT = Path(__file__).resolve().parents[1] / "training" / "checkpoints" / \
-    "recovery_rises_s0" / "latest.pt"
+    "recovery_model_rises_s0" / "latest.pt"
 
 
 def _actor(hidden_dims: list[int]) -> MLPModel:

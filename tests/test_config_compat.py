@@ -24,7 +24,7 @@ from hybrid_recovery.training.stages import StageState, stage_config
 from hybrid_recovery.training.variants import VARIANTS, variant_train_config
 
 ROOT = Path(__file__).resolve().parents[1]
-LIVE_RUN = ROOT / "training" / "checkpoints" / "recovery_rises_s0"
+LIVE_RUN = ROOT / "training" / "checkpoints" / "recovery_model_rises_s0"
 RECORD = SHIPPED_POLICY / "training_record.json"
 
 
@@ -83,7 +83,7 @@ def test_the_live_checkpoints_run_resumes_with_its_saved_settings():
     saved = json.loads((LIVE_RUN / "config.json").read_text())
     resumed = _resumed_config(LIVE_RUN, variant_train_config("full"), given=set())
     assert resumed == train_config_from_dict(saved["train_config"])
-    assert resumed.variant == "recovery_rises" and resumed.stages is not None
+    assert resumed.variant == "recovery_model_rises" and resumed.stages is not None
     assert saved["amendments"] == []  # from scratch: no amendment
     state = StageState.load(LIVE_RUN)
     assert state is not None and state.stage == saved["stage"]

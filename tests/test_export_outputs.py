@@ -16,7 +16,7 @@ from hybrid_recovery.policy.shipped import SHIPPED_POLICY
 from hybrid_recovery.training.export import export_policy
 
 ROOT = Path(__file__).resolve().parents[1]
-CHECKPOINT_RUN = ROOT / "training" / "checkpoints" / "recovery_rises_s0"
+CHECKPOINT_RUN = ROOT / "training" / "checkpoints" / "recovery_model_rises_s0"
 
 
 @pytest.fixture
