@@ -19,7 +19,13 @@ from hybrid_recovery.control.policy_controller import pd_torque
 from hybrid_recovery.control.torque_model import CONTROL_DT
 from hybrid_recovery.controllers.protocol import OutputKind
 from hybrid_recovery.getup.keyframes import KEYFRAMES
-from hybrid_recovery.getup.kneel_move import CROUCHED, FAILED, KneelMove, is_kneeling
+from hybrid_recovery.getup.kneel_move import (
+    CROUCHED,
+    FAILED,
+    KneelMove,
+    KneelMoveConfig,
+    is_kneeling,
+)
 from hybrid_recovery.getup.move_executor import ARRIVED, GroundMoves, MoveConfig
 from hybrid_recovery.getup.push_up import PushUp, PushUpConfig, on_hands_and_knees
 from hybrid_recovery.getup.relapse import com_height, move_events
@@ -40,6 +46,11 @@ GROUND_TO_SQUAT = ToSquatConfig(time_scale=0.85)
 """Hands and knees → squat over 6.5 s (its stages' own pace: 7.6 s). With the three, the
 chain from supine reaches its squat at ~14.3 s and stands by ~17.5 s, inside the paper's
 20 s trials (at its own pace it stands at ~25.6 s: ``docs/experiments.md`` §15)."""
+GROUND_KNEEL = KneelMoveConfig(bow_time=1.0, bow_settle=0.3, push_up=GROUND_PUSH_UP,
+                               push_up_settle=0.3, to_squat=GROUND_TO_SQUAT)
+"""The kneel move at the ground chain's pace: the bow over 1 s + 0.3 s, then
+:data:`GROUND_PUSH_UP` and :data:`GROUND_TO_SQUAT`; the squat at ~9 s instead of 13.6 s,
+which leaves a locked rise time for its stance resets inside 20 s."""
 
 
 class ModelController:
@@ -55,6 +66,7 @@ class ModelController:
         config: Settings of the moves; :data:`GROUND_MOVES` when None.
         push_up: Settings of the push-up; :data:`GROUND_PUSH_UP` when None.
         to_squat: Settings of hands and knees → squat; :data:`GROUND_TO_SQUAT` when None.
+        kneel: Settings of the kneel move; :data:`GROUND_KNEEL` when None.
         push_up_settle: After the push-up's smoothstep, the QP holds its end this long
             before the hands-and-knees check [s].
         max_push_ups: Push-ups tried per episode; after the last one that misses, the
@@ -70,13 +82,15 @@ class ModelController:
     joint_target: np.ndarray | None = None
 
     def __init__(self, config: MoveConfig | None = None, push_up: PushUpConfig | None = None,
-                 to_squat: ToSquatConfig | None = None, push_up_settle: float = 0.3,
-                 max_push_ups: int = 2, rise_wait: float = 1.0) -> None:
+                 to_squat: ToSquatConfig | None = None, kneel: KneelMoveConfig | None = None,
+                 push_up_settle: float = 0.3, max_push_ups: int = 2,
+                 rise_wait: float = 1.0) -> None:
         self.balance = BalanceController()
         self.moves = GroundMoves(config or GROUND_MOVES)
         self.push_up = PushUp(push_up or GROUND_PUSH_UP)
         self.push_up_settle, self.max_push_ups = push_up_settle, max_push_ups
-        self.kneel, self.rise_wait = KneelMove(), rise_wait
+        self.kneel_config, self.rise_wait = kneel or GROUND_KNEEL, rise_wait
+        self.kneel = KneelMove(self.kneel_config)
         self.to_squat = ToSquat(to_squat or GROUND_TO_SQUAT)
 
     def reset(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
@@ -87,7 +101,7 @@ class ModelController:
         self._qadr, self._dadr = joint_addresses(model)
         self.push_ups: list[dict] = []
         self.on_hands_and_knees = False
-        self.kneel = KneelMove()
+        self.kneel = KneelMove(self.kneel_config)
         self.squats: list[dict] = []
         crouched = com_height(model, data) < UPRIGHT_COM_HEIGHT
         if crouched and is_kneeling(model, data):
