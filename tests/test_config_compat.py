@@ -88,7 +88,14 @@ def test_the_live_checkpoints_run_resumes_with_its_saved_settings():
     state = StageState.load(LIVE_RUN)
     assert state is not None and state.stage == saved["stage"]
     env_cfg = make_env_config(stage_config(resumed, state.stage, LIVE_RUN, resumed.stages))
-    assert _plain(env_cfg) == _plain(env_config_from_dict(saved["env_config"]))
+    resumed_env, saved_env = _plain(env_cfg), _plain(env_config_from_dict(saved["env_config"]))
+    # the recordings are the run's own, <run>/rises/<pose>.npz, wherever the run lies
+    for env in (resumed_env, saved_env):
+        env["rises"]["files"] = [Path(f).relative_to(Path(f).parents[1]).as_posix()
+                                 for f in env["rises"]["files"]]
+    assert resumed_env == saved_env
+    for file in env_cfg.rises.files:
+        assert Path(file).is_file()  # shipped with the checkpoint: a resume trains on them
     # the checkpoint's curriculum, assistance and bridge states load into the run's own
     infos = load_checkpoint(LIVE_RUN / "latest.pt")["infos"]
     curriculum, bridge = Curriculum(env_cfg.curriculum), PoseBridge(env_cfg.bridge)
