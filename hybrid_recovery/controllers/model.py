@@ -49,7 +49,7 @@ chain from supine reaches its squat at ~14.3 s and stands by ~17.5 s, inside the
 GROUND_KNEEL = KneelMoveConfig(bow_time=1.0, bow_settle=0.3, push_up=GROUND_PUSH_UP,
                                push_up_settle=0.3, to_squat=GROUND_TO_SQUAT)
 """The kneel move at the ground chain's pace: the bow over 1 s + 0.3 s, then
-:data:`GROUND_PUSH_UP` and :data:`GROUND_TO_SQUAT`; the squat at ~9 s instead of 13.6 s,
+:data:`GROUND_PUSH_UP` and :data:`GROUND_TO_SQUAT`; the squat at ~10.1 s instead of 13.6 s,
 which leaves a locked rise time for its stance resets inside 20 s."""
 
 
