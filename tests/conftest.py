@@ -47,3 +47,18 @@ def reference_model():
 @pytest.fixture(params=["own", "reference"])
 def robot(request):
     return request.getfixturevalue(f"{request.param}_model")
+
+
+@pytest.fixture
+def dds_domain() -> int:
+    """A random DDS domain id in [1, 200] that no other pytest-xdist worker can draw.
+
+    Worker ``gw<i>`` of ``n`` draws only ids ≡ i + 1 (mod n), so loopback tests running at
+    once in different workers never share a domain (a shared one would show each test the
+    other's writers).
+    """
+    import random
+
+    worker = int(os.environ.get("PYTEST_XDIST_WORKER", "gw0").removeprefix("gw"))
+    workers = max(int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1")), 1)
+    return random.SystemRandom().choice(range(1 + worker % workers, 201, workers))

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import json
 import os
-import random
 import subprocess
 import sys
 import time
@@ -105,9 +104,9 @@ def _report(proc: subprocess.Popen) -> dict:
 
 
 @pytest.mark.dds
-def test_lowstate_and_lowcmd_round_trip_between_two_processes() -> None:
+def test_lowstate_and_lowcmd_round_trip_between_two_processes(dds_domain: int) -> None:
     pytest.importorskip("cyclonedds", reason="cyclonedds (extra 'deploy') not installed")
-    domain_id = random.SystemRandom().randint(1, 200)
+    domain_id = dds_domain
     controller = _spawn("controller", domain_id)
     robot = _spawn("robot", domain_id)
     states, cmds = _report(controller), _report(robot)
@@ -122,7 +121,7 @@ def test_lowstate_and_lowcmd_round_trip_between_two_processes() -> None:
     assert cmds["bad_crc"] == 0
 
 
-def test_an_unknown_interface_is_named() -> None:
+def test_an_unknown_interface_is_named(dds_domain: int) -> None:
     pytest.importorskip("cyclonedds", reason="cyclonedds (extra 'deploy') not installed")
     import socket
 
@@ -130,7 +129,7 @@ def test_an_unknown_interface_is_named() -> None:
 
     names = [name for _, name in socket.if_nameindex()]
     with pytest.raises(ValueError) as info:
-        DdsChannel(random.SystemRandom().randint(1, 200), "eth9")
+        DdsChannel(dds_domain, "eth9")
     assert str(info.value) == (f"unknown network interface 'eth9' for DDS: this machine has "
                                f"{names}")
 
@@ -143,9 +142,9 @@ def test_domain_id_is_validated_before_touching_dds() -> None:
 
 
 @pytest.mark.dds
-def test_a_domain_stays_bound_to_its_first_interface() -> None:
+def test_a_domain_stays_bound_to_its_first_interface(dds_domain: int) -> None:
     pytest.importorskip("cyclonedds", reason="cyclonedds (extra 'deploy') not installed")
-    domain_id = random.SystemRandom().randint(1, 200)
+    domain_id = dds_domain
     code = (
         "from hybrid_recovery.deploy.protocol import DdsChannel\n"
         f"DdsChannel({domain_id}, 'lo'); DdsChannel({domain_id}, 'lo')\n"

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import json
 import os
-import random
 import subprocess
 import sys
 import time
@@ -49,12 +48,12 @@ def _report(proc: subprocess.Popen, deadline: float, others: list[subprocess.Pop
 
 
 @pytest.mark.dds
-def test_controller_stands_the_simulated_robot_up_over_loopback(tmp_path):
+def test_controller_stands_the_simulated_robot_up_over_loopback(dds_domain, tmp_path):
     pytest.importorskip("cyclonedds", reason="cyclonedds (extra 'deploy') not installed")
     from hybrid_recovery.training.stand_in import write_stand_in_policy
 
     policy = write_stand_in_policy(tmp_path / "zero", "zero")
-    domain = str(random.SystemRandom().randint(1, 200))
+    domain = str(dds_domain)
     robot = _spawn("sim-robot", "--domain", domain, "--interface", "lo", "--gantry-s", "2.5",
                    "--seconds", "100", "--idle-exit-s", "0.3")
     # zero torque 0.3 s, interpolate 2 s, hold 0.5 s (gantry released at 2.5 s), policy
@@ -89,13 +88,13 @@ def test_controller_stands_the_simulated_robot_up_over_loopback(tmp_path):
     assert rob["last_tick"] > ticks[-1]
 
 
-def test_no_robot_gives_a_clear_timeout(tmp_path):
+def test_no_robot_gives_a_clear_timeout(dds_domain, tmp_path):
     pytest.importorskip("cyclonedds", reason="cyclonedds (extra 'deploy') not installed")
     from hybrid_recovery.deploy.bridge import run_controller
     from hybrid_recovery.training.stand_in import write_stand_in_policy
 
     policy = write_stand_in_policy(tmp_path / "zero", "zero")
-    domain = random.SystemRandom().randint(1, 200)
+    domain = dds_domain
     with pytest.raises(TimeoutError, match=rf"^no LowState_ on rt/lowstate within 0.3 s "
                                            rf"\(domain {domain}, interface lo\)"):
         run_controller(f"onnx:{policy}", domain, "lo", seconds=1.0, wait_timeout_s=0.3)

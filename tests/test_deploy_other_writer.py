@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import json
 import os
-import random
 import subprocess
 import sys
 import time
@@ -78,12 +77,12 @@ def _finish(proc: subprocess.Popen, deadline: float) -> tuple[int, str, str]:
 
 
 @pytest.mark.dds
-def test_a_second_controller_refuses_and_foreign_commands_bring_damping(tmp_path):
+def test_a_second_controller_refuses_and_foreign_commands_bring_damping(dds_domain, tmp_path):
     pytest.importorskip("cyclonedds", reason="cyclonedds (extra 'deploy') not installed")
     from hybrid_recovery.training.stand_in import write_stand_in_policy
 
     policy = write_stand_in_policy(tmp_path / "zero", "zero")
-    domain = random.SystemRandom().randint(1, 200)
+    domain = dds_domain
     procs = []
     try:
         procs.append(_spawn("sim-robot", "--domain", str(domain), "--interface", "lo",
@@ -125,10 +124,10 @@ def test_a_second_controller_refuses_and_foreign_commands_bring_damping(tmp_path
 
 
 @pytest.mark.dds
-def test_a_second_simulated_robot_refuses_to_publish():
+def test_a_second_simulated_robot_refuses_to_publish(dds_domain: int):
     pytest.importorskip("cyclonedds", reason="cyclonedds (extra 'deploy') not installed")
 
-    domain = random.SystemRandom().randint(1, 200)
+    domain = dds_domain
     procs = []
     try:
         procs.append(first := _spawn("sim-robot", "--domain", str(domain), "--interface",

@@ -12,7 +12,6 @@ simulated robot must accept every command and stand when damping begins.
 from __future__ import annotations
 
 import os
-import random
 import subprocess
 import sys
 import time
@@ -56,9 +55,9 @@ print(json.dumps({
 
 @pytest.mark.dds
 @pytest.mark.skipif(not is_shipped(), reason="no shipped policy")
-def test_hybrid_sends_torques_with_kp_zero_over_loopback():
+def test_hybrid_sends_torques_with_kp_zero_over_loopback(dds_domain: int):
     pytest.importorskip("cyclonedds", reason="cyclonedds (extra 'deploy') not installed")
-    domain = str(random.SystemRandom().randint(1, 200))
+    domain = str(dds_domain)
     robot = _spawn("sim-robot", "--domain", domain, "--interface", "lo", "--gantry-s", "1.2",
                    "--seconds", "60")
     controller = subprocess.Popen(  # argv[3] names it in _report's messages
