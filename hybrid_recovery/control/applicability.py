@@ -8,6 +8,8 @@ of the robot on the ground, or the pelvis tilted more than a bound from vertical
 
 from __future__ import annotations
 
+import math
+
 import mujoco
 import numpy as np
 
@@ -18,13 +20,16 @@ NAN_STATE_MESSAGE = "BalanceController: the state has NaN or inf entries (qpos o
 
 def check_state(data: mujoco.MjData) -> None:
     """Raises ValueError (:data:`NAN_STATE_MESSAGE`) on a non-finite qpos or qvel."""
-    if not (np.all(np.isfinite(data.qpos)) and np.all(np.isfinite(data.qvel))):
+    qpos, qvel = data.qpos, data.qvel
+    if math.isfinite(qpos.sum()) and math.isfinite(qvel.sum()):  # finite sums: all finite
+        return
+    if not (np.all(np.isfinite(qpos)) and np.all(np.isfinite(qvel))):
         raise ValueError(NAN_STATE_MESSAGE)
 
 
 def pelvis_tilt(state: RobotState) -> float:
     """θ = acos(R_zz), the pelvis's z axis from vertical [rad]."""
-    return float(np.arccos(np.clip(state.pelvis_rotation[2, 2], -1.0, 1.0)))
+    return math.acos(min(max(float(state.pelvis_rotation[2, 2]), -1.0), 1.0))
 
 
 def down_reason(state: RobotState, min_com_height: float, max_tilt: float) -> str:

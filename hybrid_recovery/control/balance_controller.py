@@ -23,6 +23,7 @@ with rising height and posture references.
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 
 import mujoco
@@ -233,19 +234,21 @@ class BalanceController:
         self._update_swing(state, t, contact)
         support = self._support(state)
         cmd = self._dcm(state, t, support)
+        outside = float(signed_distance_scalar(cmd.capture_point, support))  # d(ξ, C)
         if self._phase == DOUBLE_SUPPORT:
-            plan = self._step_plan(state, t, cmd, support)
+            plan = self._step_plan(state, t, cmd, support, outside)
             if plan is not None:
                 self._start_step(state, t, cmd.capture_point, plan)
                 support = self._support(state)
                 cmd = self._dcm(state, t, support)
+                outside = float(signed_distance_scalar(cmd.capture_point, support))
         stance = (True, True) if self._phase == DOUBLE_SUPPORT else (
             self._phase != SWING[0], self._phase != SWING[1])
         solution = self.qp.solve(state, self._tasks(state, cmd, t), stance)
         self._log_status(solution, t)
         strategy = self._strategy(cmd)
         self.max_strategy = max(self.max_strategy, strategy)
-        margin = -float(signed_distance_scalar(cmd.capture_point, support))
+        margin = -outside
         self.diagnostics = TickDiagnostics(
             time=t, applicable=True, reason="", strategy=strategy,
             capturability=self._capturability(state, cmd, support, margin, t),
@@ -347,7 +350,7 @@ class BalanceController:
     # ------------------------------------------------------------------ phases
     def _support(self, state: RobotState) -> np.ndarray:
         feet = [0, 1] if self._phase == DOUBLE_SUPPORT else [1 - SWING.index(self._phase)]
-        return convex_hull(np.concatenate([state.feet[i].cop_corners[:, :2] for i in feet]))
+        return convex_hull([xy for i in feet for xy in state.feet[i].cop_corners[:, :2].tolist()])
 
     def _dcm(self, state: RobotState, t: float, support: np.ndarray) -> DcmCommand:
         cfg = self.config
@@ -370,9 +373,10 @@ class BalanceController:
         fz = mass * (GRAVITY + cmd.com_acc[2])
         return hip_reach(cmd.omega, max(fz, 1.0), self.config.dcm)
 
-    def _step_plan(self, state: RobotState, t: float, cmd: DcmCommand, support: np.ndarray
-                   ) -> StepPlan | None:
-        """A step to take now, or None.
+    def _step_plan(self, state: RobotState, t: float, cmd: DcmCommand, support: np.ndarray,
+                   outside: float) -> StepPlan | None:
+        """A step to take now, or None (``outside``: d(ξ, C) [m], signed distance of ξ to
+        the support polygon C).
 
         Step when ξ is farther outside C than ``hip_margin_scale`` × the hip's reach, is
         not coming back under the commanded CMP (ξ̇ = ω (ξ − r_cmp) points away from C),
@@ -384,7 +388,6 @@ class BalanceController:
             return None
         if t - self._t_touchdown < cfg.min_double_support and self._step_count > 0:
             return None
-        outside = float(signed_distance_scalar(cmd.capture_point, support))
         reach = self._hip_reach(cmd, state.mass)
         if outside <= cfg.hip_margin_scale * reach:
             return None
@@ -471,7 +474,9 @@ class BalanceController:
             return Strategy.STEP
         if cmd.hip_offset > d.hip_threshold:
             return Strategy.HIP
-        if np.linalg.norm(cmd.cmp_desired - self._xi_ref) > d.ankle_threshold:
+        (dx, dy), (rx, ry) = cmd.cmp_desired.tolist(), self._xi_ref.tolist()
+        dx, dy = dx - rx, dy - ry
+        if math.sqrt(dx * dx + dy * dy) > d.ankle_threshold:  # ‖r_cmp,des − ξ_ref‖
             return Strategy.ANKLE
         return Strategy.STAND
 

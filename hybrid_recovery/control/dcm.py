@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from hybrid_recovery.control.config import DcmConfig
-from hybrid_recovery.control.polygon import closest_point, shrink
+from hybrid_recovery.control.polygon import closest_xy, shrink_vertices
 from hybrid_recovery.dynamics import GRAVITY
 
 
@@ -115,9 +115,9 @@ def dcm_command(
     r_des = (rcmp_x + gain * (xi[0] - ref_x), rcmp_y + gain * (xi[1] - ref_y))
     acc_z = cfg.height_kp * (height_ref - cz) - cfg.height_kd * vz
     fz = mass * max(GRAVITY + acc_z, 0.2 * GRAVITY)
-    region = shrink(support, cfg.cop_margin)
-    cop = closest_point(r_des, region)
-    dx, dy = r_des[0] - float(cop[0]), r_des[1] - float(cop[1])
+    region = shrink_vertices(np.asarray(support, float).tolist(), cfg.cop_margin)
+    cop = closest_xy(r_des[0], r_des[1], region)
+    dx, dy = r_des[0] - cop[0], r_des[1] - cop[1]
     hip_offset = math.sqrt(dx * dx + dy * dy)
     if hip_offset > cfg.hip_threshold:
         ldot = _bounded((fz * -dy, fz * dx), cfg.max_angular_momentum_rate)
@@ -130,15 +130,15 @@ def dcm_command(
         damping = -cfg.angular_momentum_damping
         ldot = _bounded((damping * lx, damping * ly), cfg.max_angular_momentum_rate)
         sx, sy = _cmp_shift(ldot, fz)
-        cop = closest_point((r_des[0] - sx, r_des[1] - sy), region)
+        cop = closest_xy(r_des[0] - sx, r_des[1] - sy, region)
     sx, sy = _cmp_shift(ldot, fz)
-    cmp = (float(cop[0]) + sx, float(cop[1]) + sy)
+    cmp = (cop[0] + sx, cop[1] + sy)
     omega2 = omega**2
     com_acc = np.array([omega2 * (cx - cmp[0]), omega2 * (cy - cmp[1]), acc_z])
     ldot3 = np.array([ldot[0], ldot[1], -cfg.angular_momentum_damping * lz])
     return DcmCommand(capture_point=np.array(xi), omega=omega, cmp_desired=np.array(r_des),
-                      cop=cop, cmp=np.array(cmp), com_acc=com_acc, angular_momentum_rate=ldot3,
-                      hip_offset=hip_offset)
+                      cop=np.array(cop), cmp=np.array(cmp), com_acc=com_acc,
+                      angular_momentum_rate=ldot3, hip_offset=hip_offset)
 
 
 def _bounded(vec: tuple[float, float], bound: float) -> tuple[float, float]:

@@ -14,9 +14,11 @@ from collections.abc import Sequence
 import numpy as np
 
 
-def convex_hull(points: np.ndarray) -> np.ndarray:
-    """Convex hull (monotone chain) of the xy of points (M, 2|3), CCW, shape (K, 2)."""
-    pts = sorted(set(map(tuple, np.asarray(points, dtype=float)[:, :2].tolist())))
+def convex_hull(points: np.ndarray | list[list[float]]) -> np.ndarray:
+    """Convex hull (monotone chain) of the xy of points (M, 2|3), CCW, shape (K, 2);
+    ``points`` may also be a list of [x, y] pairs (no array round trip)."""
+    pairs = points if isinstance(points, list) else np.asarray(points, dtype=float)[:, :2].tolist()
+    pts = sorted(set(map(tuple, pairs)))
     if len(pts) <= 2:
         return np.array(pts, dtype=float).reshape(-1, 2)
     return np.array(_half_hull(pts)[:-1] + _half_hull(pts[::-1])[:-1])
@@ -86,11 +88,16 @@ def signed_distance_scalar(point: np.ndarray, polygon: np.ndarray) -> float:
 def closest_point(point: np.ndarray | Sequence[float], polygon: np.ndarray) -> np.ndarray:
     """argmin_{x ∈ C} ‖x − p‖ (p itself when p ∈ C), shape (2,) [m]."""
     p = np.asarray(point, dtype=float)
-    verts = np.asarray(polygon, dtype=float).tolist()
-    px, py = float(p[0]), float(p[1])
+    return np.array(closest_xy(float(p[0]), float(p[1]),
+                               np.asarray(polygon, dtype=float).tolist()))
+
+
+def closest_xy(px: float, py: float, verts: list) -> tuple[float, float]:
+    """:func:`closest_point` of p = (px, py) in a polygon given as a list of [x, y]."""
     if len(verts) >= 3 and _edge_distance(px, py, verts) <= 0.0:
-        return p.copy()
-    return np.array(_nearest(px, py, verts)[:2])
+        return px, py
+    cx, cy, _ = _nearest(px, py, verts)
+    return cx, cy
 
 
 def shrink(polygon: np.ndarray, margin: float) -> np.ndarray:
@@ -102,11 +109,18 @@ def shrink(polygon: np.ndarray, margin: float) -> np.ndarray:
     poly = np.asarray(polygon, dtype=float)
     if margin <= 0.0:
         return poly.copy()
-    verts = poly.tolist()
+    return np.array(shrink_vertices(poly.tolist(), margin))
+
+
+def shrink_vertices(verts: list, margin: float) -> list:
+    """:func:`shrink` of a polygon given as a list of [x, y] (K ≥ 1), as a list of
+    (x, y) [m]."""
+    if margin <= 0.0:
+        return list(verts)
     k = len(verts)
     cx, cy = sum(v[0] for v in verts) / k, sum(v[1] for v in verts) / k
     if k < 3:
-        return np.array([[cx, cy]])
+        return [(cx, cy)]
     lines = []  # edge i: n_i · x = o_i, n_i the outward unit normal
     for (ax, ay), (bx, by) in _edges(verts):
         length = math.hypot(bx - ax, by - ay)
@@ -120,16 +134,16 @@ def shrink(polygon: np.ndarray, margin: float) -> np.ndarray:
         n1x, n1y, o1 = lines[i]
         det = n0x * n1y - n0y * n1x
         if abs(det) < 1e-12:
-            return np.array([[cx, cy]])
+            return [(cx, cy)]
         out.append(((o0 * n1y - n0y * o1) / det, (n0x * o1 - o0 * n1x) / det))
     for nx, ny, o in lines:  # collapsed: the centre or a vertex outside an offset edge
         if nx * cx + ny * cy > o:
-            return np.array([[cx, cy]])
+            return [(cx, cy)]
         limit = o + 1e-9
         for x, y in out:
             if nx * x + ny * y > limit:
-                return np.array([[cx, cy]])
-    return np.array(out)
+                return [(cx, cy)]
+    return out
 
 
 def clip_halfplane(polygon: np.ndarray, normal: np.ndarray, offset: float) -> np.ndarray:

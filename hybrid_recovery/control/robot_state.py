@@ -134,9 +134,14 @@ class StateReader:
         local = np.array([[model.site_pos[c] for c in sites] for sites in self._corner_sites])
         local[..., :2] = np.clip(local[..., :2], -reach, reach)
         self._cop_local = local  # (2, 4, 3) in the foot body frame
-        self._corner_index = np.array(self._corner_sites)  # (2, 4) site ids
+        # index arrays (a list index is converted on every use): both soles, then the corners
+        self._site_index = np.array([*self._foot_sites, *np.ravel(self._corner_sites)])
+        self._foot_body_index = np.array(self._foot_bodies)
+        self._corner_jobs = [(side, k, site) for side in (0, 1)
+                             for k, site in enumerate(self._corner_sites[side])]
         self._geom_body = model.geom_bodyid.tolist()
         self._nv = nv
+        self._wrench = np.zeros(6)  # mj_contactForce's output
         d = self.data  # views of its arrays, kept (each attribute access makes a new one)
         self._qpos, self._qvel, self._xpos, self._xmat = d.qpos, d.qvel, d.xpos, d.xmat
         self._site_xpos, self._site_xmat = d.site_xpos, d.site_xmat
@@ -212,23 +217,22 @@ class StateReader:
         """Both soles' states from their J, J̇ (``rates`` (24, nv), see
         :meth:`_sole_jacobians`) and those times q̇ (``products`` (24,))."""
         m, d = self.model, self.data
-        position = self._site_xpos[self._foot_sites]
-        rotation = self._site_xmat[self._foot_sites].reshape(2, 3, 3)
-        corners = self._site_xpos[self._corner_index]
+        sites = self._site_xpos[self._site_index]  # (10, 3): both soles, then the corners
+        rotation = self._site_xmat[self._site_index[:2]].reshape(2, 3, 3)
+        corners = sites[2:].reshape(2, 4, 3)
         corner_jac = np.empty((2, 4, 3, self._nv))
-        for side in (0, 1):
-            for k, site in enumerate(self._corner_sites[side]):
-                mujoco.mj_jacSite(m, d, corner_jac[side, k], None, site)
-        body_rot = self._xmat[self._foot_bodies].reshape(2, 3, 3)
-        cop_corners = (self._xpos[self._foot_bodies][:, None]
+        for side, k, site in self._corner_jobs:
+            mujoco.mj_jacSite(m, d, corner_jac[side, k], None, site)
+        bodies = self._foot_body_index
+        body_rot = self._xmat[bodies].reshape(2, 3, 3)
+        cop_corners = (self._xpos[bodies][:, None]
                        + self._cop_local @ body_rot.transpose(0, 2, 1))
-        feet = [FootState(
-            position=position[s], rotation=rotation[s], velocity=products[12 * s : 12 * s + 6],
-            jacobian=rates[12 * s : 12 * s + 6], bias_acc=products[12 * s + 6 : 12 * s + 12],
-            corners=corners[s], corner_jacobians=corner_jac[s], cop_corners=cop_corners[s],
-            normal_force=forces[s],
-        ) for s in (0, 1)]
-        return feet[0], feet[1]
+        return (
+            FootState(sites[0], rotation[0], products[0:6], rates[0:6], products[6:12],
+                      corners[0], corner_jac[0], cop_corners[0], forces[0]),
+            FootState(sites[1], rotation[1], products[12:18], rates[12:18], products[18:24],
+                      corners[1], corner_jac[1], cop_corners[1], forces[1]),
+        )
 
     def _contacts(self, data: mujoco.MjData) -> tuple[list[float], bool]:
         """Normal force on each sole [N] and whether any other robot geom touches."""
@@ -238,14 +242,14 @@ class StateReader:
             return forces, non_foot
         contact = data.contact
         geom_body, feet, floor = self._geom_body, self._foot_bodies, self._floor_bodies
-        wrench = np.zeros(6)
+        wrench = self._wrench
         for i, ((g0, g1), dist) in enumerate(zip(contact.geom.tolist(), contact.dist.tolist(),
                                                  strict=True)):
             body0 = geom_body[g0]
             robot_body = geom_body[g1] if body0 in floor else body0
             if robot_body in feet:
                 mujoco.mj_contactForce(self.model, data, i, wrench)
-                forces[feet.index(robot_body)] += wrench[0]
+                forces[feet.index(robot_body)] += float(wrench[0])
             elif dist < 0.0:
                 non_foot = True
         return forces, non_foot

@@ -110,6 +110,32 @@ class QpProblem:
 
 
 @dataclass
+class _TickBlocks:
+    """Views of the parts of a :class:`QpProblem` that change every tick (slicing them
+    once saves a view per block per tick); nv velocities, n = nv + nf variables.
+
+    Attributes:
+        hessian_qacc: H_q̈q̈, shape (nv, nv). qacc_diagonal: its diagonal, shape (nv,).
+        gradient_qacc: g_q̈, shape (nv,).
+        base_mass: A[:6, :nv]; base_forces: A[:6, nv:]; base_rhs: b[:6].
+        sole_rows: (A rows, b rows) of each stance sole, shapes (6, nv) and (6,).
+        torque_mass: C[:, :nv], shape (27, nv); torque_forces: C[:, nv:], shape (27, nf).
+        limit_box: [box_lower; box_upper] of the actuated q̈, shape (2, 27) [rad/s²].
+    """
+
+    hessian_qacc: np.ndarray
+    qacc_diagonal: np.ndarray
+    gradient_qacc: np.ndarray
+    base_mass: np.ndarray
+    base_forces: np.ndarray
+    base_rhs: np.ndarray
+    sole_rows: list[tuple[np.ndarray, np.ndarray]]
+    torque_mass: np.ndarray
+    torque_forces: np.ndarray
+    limit_box: np.ndarray
+
+
+@dataclass
 class _ProblemBuffers:
     """The arrays of one contact mode's QP, kept from tick to tick.
 
@@ -121,6 +147,7 @@ class _ProblemBuffers:
         relaxed: (lower, upper, box_lower, box_upper) of the relaxed problem: torque rows
             and joint limits free.
         built_with: (w_ρ, ρ_max) of the constant blocks.
+        blocks: Views of the blocks written every tick (:func:`_tick_blocks`).
     """
 
     problem: QpProblem
@@ -129,6 +156,18 @@ class _ProblemBuffers:
     box: np.ndarray
     relaxed: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
     built_with: tuple[float, float]
+    blocks: _TickBlocks
+
+
+def _tick_blocks(problem: QpProblem, box: np.ndarray, nv: int) -> _TickBlocks:
+    """The :class:`_TickBlocks` of ``problem`` (box: its (2, n) bounds)."""
+    hess, a_eq, b_eq, c_in = problem.hessian, problem.a_eq, problem.b_eq, problem.c_in
+    n = hess.shape[0]
+    return _TickBlocks(
+        hess[:nv, :nv], hess.reshape(-1)[: nv * (n + 1) : n + 1], problem.gradient[:nv],
+        a_eq[:6, :nv], a_eq[:6, nv:], b_eq[:6],
+        [(a_eq[row : row + 6, :nv], b_eq[row : row + 6]) for row in range(6, len(b_eq), 6)],
+        c_in[:, :nv], c_in[:, nv:], box[:, 6:nv])
 
 
 def _problem_buffers(stance: tuple[bool, bool], nv: int, nf: int, w_force: float,
@@ -147,7 +186,13 @@ def _problem_buffers(stance: tuple[bool, bool], nv: int, nf: int, w_force: float
     box[0], box[1] = free_bounds(nv, nf, max_force)
     problem = QpProblem(stance, hess, grad, a_eq, b_eq, c_in, rows[0], rows[1], box[0], box[1])
     relaxed = (np.full(n_in, -_BIG), np.full(n_in, _BIG), *free_bounds(nv, nf, max_force))
-    return _ProblemBuffers(problem, flat, rows, box, relaxed, (w_force, max_force))
+    return _ProblemBuffers(problem, flat, rows, box, relaxed, (w_force, max_force),
+                           _tick_blocks(problem, box, nv))
+
+
+def _finite(array: np.ndarray) -> bool:
+    """No NaN or inf in ``array`` (a finite sum first: one pass in the usual case)."""
+    return math.isfinite(array.sum()) or bool(np.isfinite(array).all())
 
 
 def torque_rows(state: RobotState, g_map: np.ndarray, tau_max: np.ndarray
@@ -171,20 +216,27 @@ def free_bounds(nv: int, nf: int, max_force: float) -> tuple[np.ndarray, np.ndar
 
 def stack_tasks(tasks: list[Task]) -> tuple[np.ndarray, np.ndarray]:
     """(√w J, √w b) of all tasks stacked, shapes (Σk, nv) and (Σk,): Σ w ‖J q̈ − b‖² is
-    ‖(√w J) q̈ − √w b‖²."""
-    rows, rhs = [], []
-    for t in tasks:
+    ‖(√w J) q̈ − √w b‖² (each block written in place, no concatenation)."""
+    sizes = [len(t.target) for t in tasks]
+    total = sum(sizes)
+    rows = np.empty((total, tasks[0].jacobian.shape[1]))
+    rhs = np.empty(total)
+    start = 0
+    for t, size in zip(tasks, sizes, strict=True):
+        block, target = rows[start : start + size], rhs[start : start + size]
+        start += size
         weight = t.weight
         if isinstance(weight, (float, int)) and weight >= 0.0:  # √w as a float: fewer calls
-            root: float | np.ndarray = math.sqrt(weight)
-            rows.append(root * t.jacobian)
-        else:
-            if np.shape(weight) != t.target.shape:
-                weight = np.broadcast_to(np.asarray(weight, float), t.target.shape)
-            root = np.sqrt(weight, dtype=float)
-            rows.append(root[:, None] * t.jacobian)
-        rhs.append(root * t.target)
-    return np.concatenate(rows), np.concatenate(rhs)
+            root = math.sqrt(weight)
+            np.multiply(root, t.jacobian, out=block)
+            np.multiply(root, t.target, out=target)
+            continue
+        if np.shape(weight) != t.target.shape:
+            weight = np.broadcast_to(np.asarray(weight, float), t.target.shape)
+        roots = np.sqrt(weight, dtype=float)
+        np.multiply(roots[:, None], t.jacobian, out=block)
+        np.multiply(roots, t.target, out=target)
+    return rows, rhs
 
 
 def pyramid_basis(mu: float) -> np.ndarray:
@@ -303,71 +355,79 @@ class WholeBodyQP:
         """
         if not any(stance):
             raise ValueError("WholeBodyQP.solve needs at least one stance foot")
-        nv, cfg = self.nv, self.cfg
         g_map = self._contact_map(state, stance)
-        nf = g_map.shape[1]
-        n = nv + nf
-        feet = [state.feet[s] for s in (0, 1) if stance[s]]
+        n, nf = self.nv + g_map.shape[1], g_map.shape[1]
         buffers = self._problem(stance, nf)
-        p = buffers.problem
-        # Cost (H_ρρ, the couplings and g_ρ are constant: _problem_buffers)
-        jac, b = stack_tasks(tasks)
-        np.matmul(jac.T, jac, out=p.hessian[:nv, :nv])
-        p.hessian.reshape(-1)[: nv * (n + 1) : n + 1] += cfg.w_qacc  # + w_q̈ I
-        np.negative(jac.T @ b, out=p.gradient[:nv])
-        # Equalities: floating base, then stance soles
-        mass, bias = state.mass_matrix, state.bias
-        a_eq, b_eq = p.a_eq, p.b_eq
-        a_eq[:6, :nv] = mass[:6]
-        np.negative(g_map[:6], out=a_eq[:6, nv:])
-        np.negative(bias[:6], out=b_eq[:6])
-        for row, foot in zip(range(6, len(b_eq), 6), feet, strict=True):
-            a_eq[row : row + 6, :nv] = foot.jacobian
-            b_eq[row : row + 6] = -foot.bias_acc - cfg.contact_kd * foot.velocity
-        # Torque rows (those of torque_rows): τ = C x + h_a within ±τ_max
-        c_in, h_a = p.c_in, bias[6:]
-        c_in[:, :nv] = mass[6:]
-        np.negative(g_map[6:], out=c_in[:, nv:])
+        self._write_problem(buffers.blocks, state, tasks, stance, g_map)
+        c_in, h_a = buffers.problem.c_in, state.bias[6:]
         np.subtract(self._tau_bounds, h_a, out=buffers.torque_bounds)
-        # Joint-limit box on the actuated q̈ (free base and ρ: constant)
-        horizon = cfg.limit_horizon
-        q, qd = state.qpos[7:], state.qvel[6:]
-        np.divide(2.0 * (self._joint_limits() - q - qd * horizon), horizon**2,
-                  out=buffers.box[:, 6:nv])
 
         start = time.perf_counter()
         # never hand NaN or inf to the solver (a finite sum: no NaN or inf in any entry)
         if not math.isfinite(buffers.flat.sum()) and not np.isfinite(buffers.flat).all():
             return self.fallback(state)
+        p = buffers.problem
         if self.recorder is not None:
             self.recorder.append(p.copy())
         args = p.args()
         for relaxed in (False, True):
             key = (stance, relaxed)
-            qp = self._qp(key, n, len(b_eq))
+            qp = self._qp(key, n, len(p.b_eq))
             bounds = buffers.relaxed if relaxed else args[5:]
-            if self._fresh[key]:
+            fresh = self._fresh[key]
+            if fresh:
                 qp.init(*args[:5], *bounds)
             else:
                 qp.update(*args[:5], *bounds)
             qp.solve()
-            qp.settings.initial_guess = _WARM_START
-            x = qp.results.x
-            ok = qp.results.info.status == _SOLVED and np.isfinite(x).all()
-            self._fresh[key] = False
+            if fresh:
+                qp.settings.initial_guess = _WARM_START
+                self._fresh[key] = False
+            results = qp.results
+            x, info = results.x, results.info
+            ok = info.status == _SOLVED and _finite(x)
             if not ok:  # a failed solve spoils the warm start: next time, a cold QP
                 del self._qps[key]
-            if ok:
-                solve_time = time.perf_counter() - start
-                torque = np.minimum(np.maximum(c_in @ x + h_a, self._effort_low),
-                                    constants.EFFORT_LIMITS)
-                if np.isfinite(torque).all():
-                    self.last_good = torque.copy()
-                    return QpSolution(torque, x[:nv].copy(), self._forces(x[nv:], stance),
-                                      "relaxed" if relaxed else "solved", solve_time,
-                                      int(qp.results.info.iter))
+                continue
+            solve_time = time.perf_counter() - start
+            torque = np.minimum(np.maximum(c_in @ x + h_a, self._effort_low),
+                                constants.EFFORT_LIMITS)
+            if _finite(torque):
+                self.last_good = torque.copy()
+                return QpSolution(torque, x[: self.nv].copy(), self._forces(x[self.nv :], stance),
+                                  "relaxed" if relaxed else "solved", solve_time, int(info.iter))
         solve_time = time.perf_counter() - start
         return self.fallback(state, solve_time)
+
+    def _write_problem(self, blocks: _TickBlocks, state: RobotState, tasks: list[Task],
+                       stance: tuple[bool, bool], g_map: np.ndarray) -> None:
+        """Writes the tick's blocks of the QP (cost, equalities, torque rows, joint-limit
+        box; :func:`_problem_buffers` holds the constant ones) through ``blocks``."""
+        cfg = self.cfg
+        jac, b = stack_tasks(tasks)
+        np.matmul(jac.T, jac, out=blocks.hessian_qacc)
+        blocks.qacc_diagonal += cfg.w_qacc  # + w_q̈ I
+        np.negative(jac.T @ b, out=blocks.gradient_qacc)
+        # Equalities: floating base, then stance soles
+        mass, bias = state.mass_matrix, state.bias
+        blocks.base_mass[...] = mass[:6]
+        np.negative(g_map[:6], out=blocks.base_forces)
+        np.negative(bias[:6], out=blocks.base_rhs)
+        feet = [state.feet[s] for s in (0, 1) if stance[s]]
+        for (rows, rhs), foot in zip(blocks.sole_rows, feet, strict=True):
+            rows[...] = foot.jacobian
+            np.negative(foot.bias_acc, out=rhs)
+            rhs -= cfg.contact_kd * foot.velocity
+        # Torque rows (those of torque_rows): τ = C x + h_a within ±τ_max
+        blocks.torque_mass[...] = mass[6:]
+        np.negative(g_map[6:], out=blocks.torque_forces)
+        # Joint-limit box on the actuated q̈ (free base and ρ: constant)
+        horizon = cfg.limit_horizon
+        box = blocks.limit_box
+        np.subtract(self._joint_limits(), state.qpos[7:], out=box)
+        box -= state.qvel[6:] * horizon
+        box *= 2.0
+        box /= horizon**2
 
     def fallback(self, state: RobotState, solve_time: float = 0.0) -> QpSolution:
         """The last good command, else joint damping τ = −K_D q̇ (clipped)."""
@@ -380,9 +440,11 @@ class WholeBodyQP:
         return QpSolution(torque, np.zeros(self.nv), np.zeros((2, 4, 3)), status, solve_time, 0)
 
     def _forces(self, rho: np.ndarray, stance: tuple[bool, bool]) -> np.ndarray:
+        """Corner forces f = B ρ_i, shape (2, 4, 3) [N] (zeros on a swing foot), from the
+        solution's ρ, shape (16 · #stance,)."""
+        per_corner = (rho.reshape(-1, 4) @ self.basis.T).reshape(-1, 4, 3)
+        if stance[0] and stance[1]:
+            return per_corner
         forces = np.zeros((2, 4, 3))
-        blocks = iter(rho.reshape(-1, 4, 4))
-        for s in (0, 1):
-            if stance[s]:
-                forces[s] = next(blocks) @ self.basis.T
+        forces[stance.index(True)] = per_corner[0]
         return forces
