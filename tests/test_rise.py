@@ -109,6 +109,22 @@ def test_a_locked_rise_resets_its_stance_and_stands(model):
     assert standing > 1.0 and tilt < 20.0 and not controller.rising
 
 
+def test_no_step_while_the_stance_sole_is_in_the_air(model):
+    """A squatting start still falling (both soles 5 cm up, no force on either) with its
+    capture point outside the soles: the rise starts, but takes no step until a stance
+    sole carries load (a step planned in the air tips it over: squatting seed 8)."""
+    data = _start(model, "squatting", 8)
+    data.qpos[2] += 0.05
+    mujoco.mj_forward(model, data)
+    controller = BalanceController()
+    assert controller.rise(model, data)
+    controller(model, data)
+    diag = controller.diagnostics
+    assert all(f.normal_force == 0.0 for f in controller._read(data).feet)
+    assert diag.margin < -0.05  # ξ outside the soles: a step would be asked for
+    assert controller.steps == []
+
+
 def test_rise_config_is_checked():
     with pytest.raises(ValueError, match=r"RiseConfig.duration must be > 0, got 0.0"):
         RiseConfig(duration=0.0)

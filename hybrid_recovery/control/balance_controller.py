@@ -381,7 +381,8 @@ class BalanceController:
         Step when ξ is farther outside C than ``hip_margin_scale`` × the hip's reach, is
         not coming back under the commanded CMP (ξ̇ = ω (ξ − r_cmp) points away from C),
         and a single step captures; or when ξ is farther out than the full reach (then the
-        best step, even one that does not capture on its own).
+        best step, even one that does not capture on its own). Never while the stance
+        sole carries no load (``foot_contact_force``): a start still landing.
         """
         cfg = self.config.stepping
         if not cfg.enabled or self._step_count >= cfg.max_steps:
@@ -397,6 +398,8 @@ class BalanceController:
         xy, corners, rots = self._feet_arrays(state)
         plan = plan_step(cmd.capture_point, cmd.omega, xy, corners, rots, cfg,
                          self.config.dcm.cop_margin)
+        if state.feet[1 - plan.swing].normal_force <= self.config.foot_contact_force:
+            return None  # its stance sole is in the air (e.g. a start still landing)
         return plan if plan.capturable or outside > reach else None
 
     def _feet_arrays(self, state: RobotState):
