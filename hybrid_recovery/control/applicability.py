@@ -18,12 +18,15 @@ from hybrid_recovery.control.robot_state import RobotState
 NAN_STATE_MESSAGE = "BalanceController: the state has NaN or inf entries (qpos or qvel)"
 
 
+def all_finite(*arrays: np.ndarray) -> bool:
+    """No NaN or inf in any of ``arrays`` (a finite sum first: one pass in the usual case;
+    a sum that overflows falls back to the entries)."""
+    return all(math.isfinite(a.sum()) or bool(np.isfinite(a).all()) for a in arrays)
+
+
 def check_state(data: mujoco.MjData) -> None:
     """Raises ValueError (:data:`NAN_STATE_MESSAGE`) on a non-finite qpos or qvel."""
-    qpos, qvel = data.qpos, data.qvel
-    if math.isfinite(qpos.sum()) and math.isfinite(qvel.sum()):  # finite sums: all finite
-        return
-    if not (np.all(np.isfinite(qpos)) and np.all(np.isfinite(qvel))):
+    if not all_finite(data.qpos, data.qvel):
         raise ValueError(NAN_STATE_MESSAGE)
 
 

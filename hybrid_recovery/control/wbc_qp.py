@@ -35,6 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 import proxsuite
 
+from hybrid_recovery.control.applicability import all_finite
 from hybrid_recovery.control.config import QpConfig
 from hybrid_recovery.control.robot_state import RobotState
 from hybrid_recovery.robot import constants
@@ -188,11 +189,6 @@ def _problem_buffers(stance: tuple[bool, bool], nv: int, nf: int, w_force: float
     relaxed = (np.full(n_in, -_BIG), np.full(n_in, _BIG), *free_bounds(nv, nf, max_force))
     return _ProblemBuffers(problem, flat, rows, box, relaxed, (w_force, max_force),
                            _tick_blocks(problem, box, nv))
-
-
-def _finite(array: np.ndarray) -> bool:
-    """No NaN or inf in ``array`` (a finite sum first: one pass in the usual case)."""
-    return math.isfinite(array.sum()) or bool(np.isfinite(array).all())
 
 
 def torque_rows(state: RobotState, g_map: np.ndarray, tau_max: np.ndarray
@@ -363,8 +359,7 @@ class WholeBodyQP:
         np.subtract(self._tau_bounds, h_a, out=buffers.torque_bounds)
 
         start = time.perf_counter()
-        # never hand NaN or inf to the solver (a finite sum: no NaN or inf in any entry)
-        if not math.isfinite(buffers.flat.sum()) and not np.isfinite(buffers.flat).all():
+        if not all_finite(buffers.flat):  # never hand NaN or inf to the solver
             return self.fallback(state)
         p = buffers.problem
         if self.recorder is not None:
@@ -385,14 +380,14 @@ class WholeBodyQP:
                 self._fresh[key] = False
             results = qp.results
             x, info = results.x, results.info
-            ok = info.status == _SOLVED and _finite(x)
+            ok = info.status == _SOLVED and all_finite(x)
             if not ok:  # a failed solve spoils the warm start: next time, a cold QP
                 del self._qps[key]
                 continue
             solve_time = time.perf_counter() - start
             torque = np.minimum(np.maximum(c_in @ x + h_a, self._effort_low),
                                 constants.EFFORT_LIMITS)
-            if _finite(torque):
+            if all_finite(torque):
                 self.last_good = torque.copy()
                 return QpSolution(torque, x[: self.nv].copy(), self._forces(x[self.nv :], stance),
                                   "relaxed" if relaxed else "solved", solve_time, int(info.iter))
