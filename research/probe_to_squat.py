@@ -63,14 +63,16 @@ def hand_over_state(pose: str, seed: int) -> dict | None:
     return state or None
 
 
-def replay(state: dict, rise_time: float) -> str:
+def replay(state: dict, rise_time: float, time_scale: float | None = None) -> str:
     """``"stood"``, ``"fell"`` (the rise accepted the squat, the CoM ended at or below
-    0.85 m) or ``"no_squat"`` from one kept state."""
+    0.85 m) or ``"no_squat"`` from one kept state; the move at ``time_scale`` (None: the
+    controller's pace kept with the state)."""
     model = eval_model(None, CONTROL_DT, True, "default")
     data = mujoco.MjData(model)
     data.qpos[:], data.qvel[:], data.time = state["qpos"], state["qvel"], state["time"]
     mujoco.mj_forward(model, data)
-    move = ToSquat(ToSquatConfig(time_scale=float(state["time_scale"])))
+    pace = float(state["time_scale"]) if time_scale is None else time_scale
+    move = ToSquat(ToSquatConfig(time_scale=pace))
     move.reset(model, data)
     balance, steps, done_at = BalanceController(), 0, None
     while True:
@@ -118,11 +120,12 @@ def _states(path: Path, poses: list[str], seeds: range, workers: int) -> dict[st
 
 
 def probe(poses: list[str], seeds: range, states_path: Path, rise_time: float = 5.0,
-          workers: int = 2) -> dict[str, dict]:
+          workers: int = 2, time_scale: float | None = None) -> dict[str, dict]:
     """{pose: {starts, squats, stood, squat_interval, stood_interval}} over the kept states."""
     states = _states(states_path, poses, seeds, workers)
     keys = sorted(states)
-    outcomes = dict(zip(keys, _starmap(replay, [(states[k], rise_time) for k in keys], workers),
+    outcomes = dict(zip(keys, _starmap(replay, [(states[k], rise_time, time_scale) for k in keys],
+                                          workers),
                         strict=True))
     out = {}
     for pose in poses:
@@ -141,10 +144,13 @@ def main() -> None:
     parser.add_argument("--states", type=Path, default=Path("to_squat_states.npz"),
                         help="hand-over states, kept and reused")
     parser.add_argument("--rise", type=float, default=5.0, help="rise time after the squat [s]")
+    parser.add_argument("--time-scale", type=float, default=None,
+                        help="the move's pace (default: the controller's, kept per state)")
     parser.add_argument("--workers", type=int, default=2)
     args = parser.parse_args()
     first, end = (int(x) for x in args.seeds.split(":"))
-    out = probe(args.poses, range(first, end), args.states, args.rise, args.workers)
+    out = probe(args.poses, range(first, end), args.states, args.rise, args.workers,
+                args.time_scale)
     print(f"{'pose':10s} {'starts':>6s} {'squat accepted':>24s} {'stood':>24s}")
     for pose, row in out.items():
         sq, st = row["squat_interval"], row["stood_interval"]

@@ -7,9 +7,10 @@ import numpy as np
 import pytest
 
 from hybrid_recovery.control.torque_model import load_torque_model
+from hybrid_recovery.controllers.model import ModelController
 from hybrid_recovery.dynamics import RobotModel
 from hybrid_recovery.evaluation.scenario import Scenario
-from hybrid_recovery.evaluation.trial import start_state
+from hybrid_recovery.evaluation.trial import run_trial, start_state
 from hybrid_recovery.getup.feasibility import static_feasibility
 from hybrid_recovery.getup.ground_state import GroundPose, classify, read_ground_pose
 from hybrid_recovery.getup.keyframes import KEYFRAMES, mirror
@@ -123,3 +124,33 @@ def test_move_config_messages():
     with pytest.raises(ValueError) as err:
         MoveConfig(time_scale=0.0)
     assert str(err.value) == "MoveConfig.time_scale must be > 0, got 0.0"
+
+
+def test_a_falling_robot_is_classified_where_it_comes_to_rest():
+    """Squatting seed 85 (the evaluation's start) falls forward out of the QP's rise: 0.5 s
+    after the moves start it is still falling through a state with no move (``other``);
+    they wait until the pelvis is slower than ``rest_speed`` and plan from where it lies
+    (prone), where a classification at 0.5 s was stuck in ``other`` for the rest of the
+    trial."""
+    controller, samples = ModelController(), []
+
+    def pelvis_speed(model, data, push):
+        samples.append((float(data.time), float(np.linalg.norm(data.qvel[:3]))))
+
+    run_trial(controller, Scenario("squatting", duration=3.0, seed=85), on_sample=pelvis_speed)
+    moves = controller.moves
+    [fell] = [e.time for e in controller.balance.events if e.kind == "rise_failed"]
+    first = moves.events[0]
+    assert first.kind == "move" and first.message == "tuck from prone", moves.events
+    settled = fell + moves.config.settle_time
+    assert first.time > settled + 0.2  # waited past the settle time
+    assert max(v for t, v in samples if settled <= t < first.time) >= moves.config.rest_speed
+
+
+def test_the_first_classification_waits_at_most_max_settle(model):
+    moves = GroundMoves(MoveConfig(rest_speed=1e-9, max_settle=1.2))
+    data = _start(model, "prone", 0)
+    moves.reset(model, data)
+    _run(model, data, moves, until=3.0)
+    assert moves.events[0].message == "tuck from prone"
+    assert moves.events[0].time == pytest.approx(1.2, abs=0.003)

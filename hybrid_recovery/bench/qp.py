@@ -20,11 +20,10 @@ from collections.abc import Callable, Iterable
 from pathlib import Path
 
 import numpy as np
-import proxsuite
-import qpsolvers
 
 from hybrid_recovery.control.balance_controller import BalanceController
 from hybrid_recovery.control.config import default_config
+from hybrid_recovery.control.proxsuite_build import BUILD, proxsuite
 from hybrid_recovery.control.rollout import Push, run_episode, standing_data
 from hybrid_recovery.control.torque_model import load_torque_model
 from hybrid_recovery.control.wbc_qp import QpProblem
@@ -81,6 +80,8 @@ def _replay_cold(problems: list[QpProblem]) -> list[float]:
 
 
 def _replay_qpsolvers(problems: list[QpProblem]) -> list[float]:
+    import qpsolvers  # here: it loads proxsuite at import (proxsuite_build)
+
     out = []
     for p in problems:
         start = time.perf_counter()
@@ -125,7 +126,8 @@ def solve_timing(push_force: float = 300.0, duration: float = 2.0,
            "qpsolvers_proxqp": _stats(_replay_qpsolvers(problems))}
     n = max((p.hessian.shape[0] for p in problems), default=0)
     log(f"QP timing: {len(problems)} ticks, {push_force:.0f} N push, steps taken "
-        f"{len(controller.steps)}; double-support QP: {n} variables")
+        f"{len(controller.steps)}; double-support QP: {n} variables; proxsuite build "
+        f"{BUILD}")
     iters = np.array([d.qp_iterations for d in live])
     log(f"proxsuite iterations per tick: median {np.median(iters):.0f}, "
         f"p99 {np.percentile(iters, 99):.0f}, max {iters.max()}")

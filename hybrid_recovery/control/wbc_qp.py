@@ -33,10 +33,10 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-import proxsuite
 
 from hybrid_recovery.control.applicability import all_finite
 from hybrid_recovery.control.config import QpConfig
+from hybrid_recovery.control.proxsuite_build import proxsuite
 from hybrid_recovery.control.robot_state import RobotState
 from hybrid_recovery.robot import constants
 

@@ -40,9 +40,9 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
-import proxsuite
 
 from hybrid_recovery.checks import NON_NEGATIVE, POSITIVE, Range, check_fields
+from hybrid_recovery.control.proxsuite_build import proxsuite
 from hybrid_recovery.control.robot_state import RobotState, StateReader
 from hybrid_recovery.control.wbc_qp import (
     Task,

@@ -33,10 +33,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pinocchio as pin
-import proxsuite
 from scipy.optimize import linprog
 
 from hybrid_recovery.checks import FINITE, POSITIVE, Range, check_fields
+from hybrid_recovery.control.proxsuite_build import proxsuite
 from hybrid_recovery.dynamics.conventions import qpos_to_pin
 from hybrid_recovery.dynamics.robot_model import GRAVITY, RobotModel
 from hybrid_recovery.getup.contacts import (

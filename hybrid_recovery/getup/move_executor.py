@@ -36,8 +36,14 @@ class MoveConfig:
         goal: Ground state to reach (the hand-over state).
         range_factor: Targets within the joint ranges scaled by this about their middle.
         max_moves: Moves tried before giving up (``stuck``).
-        settle_time: The joints are held this long before the first classification, so
-            that a robot dropped onto the floor has landed [s].
+        settle_time: The joints are held at least this long before the first
+            classification, so that a robot dropped onto the floor has landed [s].
+        rest_speed: ... and after ``settle_time`` until the pelvis is slower than this
+            [m/s], so that a falling robot is classified where it comes to rest, not on
+            its way down (a squat falling forward passes a state with no move, ``other``,
+            on its way to prone or supine).
+        max_settle: The first classification comes at the latest this long after the
+            start, at rest or not [s].
         time_scale: Every phase's duration and hold are multiplied by this [-] (< 1: the
             same keyframes, faster).
     """
@@ -46,6 +52,8 @@ class MoveConfig:
     range_factor: float = 0.9
     max_moves: int = 8
     settle_time: float = 0.5
+    rest_speed: float = 0.2
+    max_settle: float = 3.0
     time_scale: float = 1.0
 
     def __post_init__(self) -> None:
@@ -54,6 +62,7 @@ class MoveConfig:
 
 RANGES: dict[str, Range] = {"range_factor": (0.0, False, 1.0),
                             "max_moves": (1, True, float("inf")), "settle_time": NON_NEGATIVE,
+                            "rest_speed": POSITIVE, "max_settle": NON_NEGATIVE,
                             "time_scale": POSITIVE}
 """Field of :class:`MoveConfig` → its range."""
 
@@ -97,6 +106,7 @@ class GroundMoves:
         limits = SafetyLimits.from_model(model)
         self._lo, self._hi = limits.q_ref_bounds(self.config.range_factor)
         self._qadr, self._dadr = joint_addresses(model)
+        self._base_dof = int(model.jnt_dofadr[0])
         self.events = []
         self.moves_tried = 0
         self.move: Move | None = None
@@ -105,6 +115,8 @@ class GroundMoves:
         self.q_ref = np.clip(data.qpos[self._qadr], self._lo, self._hi)
         self.state, self.status, self.phase = "", MOVING, 0
         self._settle_until = float(data.time) + self.config.settle_time
+        self._settle_latest = float(data.time) + max(self.config.settle_time,
+                                                      self.config.max_settle)
         if self.config.settle_time <= 0.0:
             self._plan(model, data)
 
@@ -141,7 +153,8 @@ class GroundMoves:
 
     def targets(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
         """q_ref (27,) [rad] of the current phase (the servo targets on a PD-servo model)."""
-        if self.status == MOVING and self.move is None and data.time >= self._settle_until - 1e-9:
+        if (self.status == MOVING and self.move is None
+                and data.time >= self._settle_until - 1e-9 and self._at_rest(data)):
             self._plan(model, data)
         if self.move is not None:
             phase = self.move.phases[self.phase]
@@ -156,6 +169,13 @@ class GroundMoves:
                 s = smoothstep((float(data.time) - self._t0) / (phase.duration * scale))[0]
                 self.q_ref = (1.0 - s) * self._from + s * self._to
         return self.q_ref
+
+    def _at_rest(self, data: mujoco.MjData) -> bool:
+        """The pelvis slower than ``rest_speed``, or ``max_settle`` over."""
+        if data.time >= self._settle_latest - 1e-9:
+            return True
+        return bool(np.linalg.norm(data.qvel[self._base_dof:self._base_dof + 3])
+                    < self.config.rest_speed)
 
     @property
     def goal(self) -> np.ndarray:
