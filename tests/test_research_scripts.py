@@ -354,7 +354,8 @@ def test_to_squat_probe_keeps_the_hand_over_states_and_counts_per_pose(tmp_path,
 
     outcome = {0: "stood", 1: "fell", 3: "no_squat", 4: "stood"}
     monkeypatch.setattr(module, "hand_over_state", state)
-    monkeypatch.setattr(module, "replay", lambda s, rise: outcome[int(s["qpos"][0])])
+    monkeypatch.setattr(module, "replay",
+                        lambda s, rise, time_scale=None: outcome[int(s["qpos"][0])])
     path = tmp_path / "states.npz"
     out = module.probe(["kneeling"], range(4), path, workers=1)
     assert asked == [("kneeling", s) for s in range(4)]
