@@ -136,10 +136,10 @@ def test_model_controller_kneels_to_a_squat_and_starts_the_rise(model):
     controller's kneel move bows, pushes up and goes to the squat on both feet, nothing
     else on the floor, and hands the crouch to the QP's rise.
 
-    One start's outcome is chaotic: proxsuite's solutions of the same QP differ in the last
-    bits between solver instances (memory alignment), and over seconds of contact switches
-    that decides where a foot lands (seed 1 reached the squat in 3 of 6 runs at the
-    keyframes' pace). Seed 2 reached it in 6 of 6 runs with the joint velocities perturbed
+    One start's outcome is chaotic: over seconds of contact switches a difference in the
+    last bits decides where a foot lands (with proxsuite's vectorised build, whose bits
+    varied from run to run, seed 1 reached the squat in 3 of 6 runs at the keyframes'
+    pace). Seed 2 reached it in 6 of 6 runs with the joint velocities perturbed
     by 10⁻⁶ rad/s, at the keyframes' pace and at the controller's (``GROUND_KNEEL``: the
     squat at 10.1 s; ``docs/experiments.md`` §15)."""
     data = _seated(model, "kneeling", 2)
