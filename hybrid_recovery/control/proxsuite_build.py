@@ -24,17 +24,16 @@ PORTABLE_BUILD = "proxsuite_pywrap"
 
 def _load() -> types.ModuleType:
     """proxsuite, its portable build chosen when this process has not loaded it yet."""
-    if "proxsuite" not in sys.modules:
-        # proxsuite picks its build by proxsuite.instructionset's CPU checks: answer no
-        shim = types.ModuleType("proxsuite.instructionset")
-        shim.has_AVX512F = shim.has_AVX2 = lambda: False  # type: ignore[attr-defined]
-        sys.modules[shim.__name__] = shim
-        try:
-            import proxsuite
-        finally:
-            del sys.modules[shim.__name__]
-        return proxsuite
-    import proxsuite
+    if "proxsuite" in sys.modules:
+        return sys.modules["proxsuite"]
+    # proxsuite picks its build by proxsuite.instructionset's CPU checks: answer no
+    shim = types.ModuleType("proxsuite.instructionset")
+    shim.has_AVX512F = shim.has_AVX2 = lambda: False  # type: ignore[attr-defined]
+    sys.modules[shim.__name__] = shim
+    try:
+        import proxsuite
+    finally:
+        del sys.modules[shim.__name__]
     return proxsuite
 
 

@@ -28,6 +28,12 @@ from hybrid_recovery.robot.mjcf import joint_addresses
 MOVING, ARRIVED, STUCK = "moving", "arrived", "stuck"
 
 
+def base_speed(model: mujoco.MjModel, data: mujoco.MjData) -> float:
+    """|v_b|, the speed of the floating base (the pelvis) [m/s]."""
+    dof = model.jnt_dofadr[0]
+    return float(np.linalg.norm(data.qvel[dof:dof + 3]))
+
+
 @dataclass(frozen=True)
 class MoveConfig:
     """Settings of the ground moves.
@@ -106,7 +112,6 @@ class GroundMoves:
         limits = SafetyLimits.from_model(model)
         self._lo, self._hi = limits.q_ref_bounds(self.config.range_factor)
         self._qadr, self._dadr = joint_addresses(model)
-        self._base_dof = int(model.jnt_dofadr[0])
         self.events = []
         self.moves_tried = 0
         self.move: Move | None = None
@@ -154,7 +159,7 @@ class GroundMoves:
     def targets(self, model: mujoco.MjModel, data: mujoco.MjData) -> np.ndarray:
         """q_ref (27,) [rad] of the current phase (the servo targets on a PD-servo model)."""
         if (self.status == MOVING and self.move is None
-                and data.time >= self._settle_until - 1e-9 and self._at_rest(data)):
+                and data.time >= self._settle_until - 1e-9 and self._at_rest(model, data)):
             self._plan(model, data)
         if self.move is not None:
             phase = self.move.phases[self.phase]
@@ -170,12 +175,10 @@ class GroundMoves:
                 self.q_ref = (1.0 - s) * self._from + s * self._to
         return self.q_ref
 
-    def _at_rest(self, data: mujoco.MjData) -> bool:
+    def _at_rest(self, model: mujoco.MjModel, data: mujoco.MjData) -> bool:
         """The pelvis slower than ``rest_speed``, or ``max_settle`` over."""
-        if data.time >= self._settle_latest - 1e-9:
-            return True
-        return bool(np.linalg.norm(data.qvel[self._base_dof:self._base_dof + 3])
-                    < self.config.rest_speed)
+        return (data.time >= self._settle_latest - 1e-9
+                or base_speed(model, data) < self.config.rest_speed)
 
     @property
     def goal(self) -> np.ndarray:

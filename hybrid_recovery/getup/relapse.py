@@ -11,7 +11,7 @@ import mujoco
 import numpy as np
 
 from hybrid_recovery.checks import NON_NEGATIVE, POSITIVE, Range, check_fields
-from hybrid_recovery.getup.move_executor import GroundMoves, MoveConfig
+from hybrid_recovery.getup.move_executor import GroundMoves, MoveConfig, base_speed
 from hybrid_recovery.robot import constants
 
 
@@ -77,9 +77,8 @@ def lying_still(model: mujoco.MjModel, data: mujoco.MjData, config: GetupConfig)
     if com_height(model, data) >= config.ground_com_height:
         return False
     joints = data.qvel[model.jnt_dofadr[1:1 + constants.NUM_JOINTS]]
-    base = data.qvel[model.jnt_dofadr[0]:model.jnt_dofadr[0] + 3]
     return bool(np.abs(joints).max() < config.still_joint_speed
-                and np.linalg.norm(base) < config.still_base_speed)
+                and base_speed(model, data) < config.still_base_speed)
 
 
 def move_events(moves: GroundMoves) -> list[tuple[float, str, str]]:
