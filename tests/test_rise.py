@@ -86,7 +86,7 @@ def test_a_locked_rise_resets_its_stance_and_stands(model):
     data = _start(model, "squatting", 28)
     controller = BalanceController()
     assert controller.rise(model, data)
-    cfg = controller.config.rise
+    cfg, profile = controller.config.rise, controller._rise.duration
     standing, heights = 0.0, []
     for _ in range(int(10.0 / CONTROL_DT)):
         data.ctrl[:] = controller(model, data)
@@ -99,7 +99,7 @@ def test_a_locked_rise_resets_its_stance_and_stands(model):
     assert [k for k, _ in kinds] == ["rise", "stance_reset", "step", "touchdown", "rise",
                                      "risen"]
     locked_at = kinds[1][1]
-    assert locked_at == pytest.approx(cfg.duration + cfg.stall_time, abs=0.01)
+    assert locked_at == pytest.approx(profile + cfg.stall_time, abs=0.01)
     assert max(heights[:int(locked_at / CONTROL_DT)]) < cfg.end_com_height  # it was locked
     [step] = controller.steps
     stance = step.first_plan.stance_cop
@@ -128,6 +128,29 @@ def test_no_step_while_the_stance_sole_is_in_the_air(model):
 def test_rise_config_is_checked():
     with pytest.raises(ValueError, match=r"RiseConfig.duration must be > 0, got 0.0"):
         RiseConfig(duration=0.0)
+    with pytest.raises(ValueError, match=r"RiseConfig.speed must be > 0, got -0.1"):
+        RiseConfig(speed=-0.1)
+    with pytest.raises(ValueError, match=r"min_duration must be <= duration \(3.0\), got 4.0"):
+        RiseConfig(min_duration=4.0)
+
+
+def test_the_profile_lasts_its_height_over_the_mean_speed(model):
+    """T = (h* − h₀)/v̄ within [min_duration, duration]: a deep squat over the longest T,
+    a squat high on its feet (the ground chain's, CoM ~0.71 m) faster at the same v̄."""
+    cfg = RiseConfig()
+    assert cfg.profile_duration(0.56, 0.92) == pytest.approx(3.0)
+    assert cfg.profile_duration(0.71, 0.92) == pytest.approx(0.21 / cfg.speed)
+    assert cfg.profile_duration(0.40, 0.92) == cfg.duration
+    assert cfg.profile_duration(0.90, 0.92) == cfg.min_duration
+    data = _start(model, "squatting", 3)
+    controller = BalanceController()
+    assert controller.rise(model, data)
+    rise = controller._rise
+    assert rise.duration == pytest.approx((rise.height[1] - rise.height[0]) / cfg.speed)
+    # the CoM reference's peak speed is 1.875 v̄ whatever the height (minimum jerk)
+    t = rise.start + np.linspace(0.0, rise.duration, 2001)
+    speed = np.gradient([rise.height_ref(x) for x in t], t)
+    assert speed.max() == pytest.approx(1.875 * cfg.speed, rel=1e-3)
 
 
 def test_squat_rise_ends_standing(model):

@@ -157,8 +157,9 @@ class BalanceController:
 
         ξ_ref is the midpoint of the soles; h_ref and q_ref go from the current CoM
         height and joints to the standing h* (:func:`~.rise.standing_com_height`) and q*
-        over ``RiseConfig.duration``, then stay there. While rising the QP applies down
-        to ``RiseConfig.min_com_height`` and up to ``RiseConfig.max_tilt``.
+        over T (:meth:`~.config.RiseConfig.profile_duration`), then stay there. While
+        rising the QP applies down to ``RiseConfig.min_com_height`` and up to
+        ``RiseConfig.max_tilt``.
         """
         self.reset(model, data)
         cfg = self.config.rise
@@ -167,16 +168,15 @@ class BalanceController:
             return False
         if id(model) not in self._standing:
             self._standing[id(model)] = (standing_com_height(model), standing_sole_width(model))
-        t = float(data.time)
-        self._rise = RiseTrajectory(
-            t, cfg.duration, (float(state.com[2]), self._standing[id(model)][0]),
-            (state.qpos[7:].copy(), constants.DEFAULT_JOINT_POS.copy()))
+        t, height = float(data.time), (float(state.com[2]), self._standing[id(model)][0])
+        self._rise = RiseTrajectory(t, cfg.profile_duration(*height), height,
+                                    (state.qpos[7:].copy(), constants.DEFAULT_JOINT_POS.copy()))
         self._xi_ref = np.mean([f.position[:2] for f in state.feet], axis=0)
         self._cmp_ref = self._xi_ref.copy()
         self._heading = _mean_heading([f.rotation for f in state.feet])
         self.qp.limit_margin = cfg.limit_margin
         self.events.append(Event(t, "rise", f"rise from CoM height {state.com[2]:.2f} m to "
-                                 f"{self._rise.height[1]:.2f} m over {cfg.duration:.1f} s"))
+                                 f"{self._rise.height[1]:.2f} m over {self._rise.duration:.1f} s"))
         return True
 
     @property
@@ -316,9 +316,9 @@ class BalanceController:
                 self._swing_heading = self._heading.copy()
         else:  # the step has landed (double support again): the profile from this stance
             reset.finish()
-            self._rise = RiseTrajectory(
-                t, cfg.duration, (float(state.com[2]), self._rise.height[1]),
-                (state.qpos[7:].copy(), self._rise.posture[1]))
+            height = (float(state.com[2]), self._rise.height[1])
+            self._rise = RiseTrajectory(t, cfg.profile_duration(*height), height,
+                                        (state.qpos[7:].copy(), self._rise.posture[1]))
             self.events.append(Event(t, "rise",
                                      f"rise again from CoM height {state.com[2]:.2f} m"))
 

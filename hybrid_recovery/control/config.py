@@ -152,11 +152,18 @@ class RiseConfig:
 
     The CoM height reference h_ref(t) and the posture reference q_ref(t) follow one
     minimum-jerk profile s(t) from the crouch (h₀, q₀) to the standing pose (h*, q*) over
-    ``duration``; the capture-point law, the stepping and the QP are the standing ones.
+    T (:meth:`profile_duration`); the capture-point law, the stepping and the QP are the
+    standing ones.
     """
 
+    speed: float = 0.12
+    """Mean CoM rise speed v̄ of the profile s(t) = 10τ³ − 15τ⁴ + 6τ⁵, τ = t/T: T =
+    (h* − h₀)/v̄ [m/s] (peak speed 1.875 v̄). A deep squat (h₀ 0.56 m) rises over 3 s,
+    a squat at 0.71 m over 1.75 s."""
     duration: float = 3.0
-    """Duration T of the profile s(t) = 10τ³ − 15τ⁴ + 6τ⁵, τ = t/T [s]."""
+    """Longest T [s]."""
+    min_duration: float = 1.0
+    """Shortest T [s]."""
     min_com_height: float = 0.3
     """While rising the QP applies down to this CoM height [m] (standing: 0.6)."""
     max_tilt: float = 1.3
@@ -193,6 +200,14 @@ class RiseConfig:
 
     def __post_init__(self) -> None:
         check_config(self)
+        if self.min_duration > self.duration:
+            raise ValueError(f"RiseConfig.min_duration must be <= duration "
+                             f"({self.duration}), got {self.min_duration}")
+
+    def profile_duration(self, start_height: float, end_height: float) -> float:
+        """T = (h* − h₀)/v̄ within [``min_duration``, ``duration``] [s]."""
+        return min(self.duration,
+                   max(self.min_duration, (end_height - start_height) / self.speed))
 
 
 @dataclass
@@ -285,7 +300,8 @@ RANGES: dict[str, dict[str, Range]] = {
         "touchdown_force": NON_NEGATIVE, "touchdown_timeout": POSITIVE,
         "min_double_support": NON_NEGATIVE, "max_steps": NON_NEGATIVE},
     "RiseConfig": {
-        "duration": POSITIVE, "min_com_height": POSITIVE, "max_tilt": POSITIVE,
+        "speed": POSITIVE, "duration": POSITIVE, "min_duration": POSITIVE,
+        "min_com_height": POSITIVE, "max_tilt": POSITIVE,
         "max_sole_height": NON_NEGATIVE, "end_com_height": POSITIVE, "end_tilt": POSITIVE,
         "w_pelvis_orientation": NON_NEGATIVE, "limit_margin": NON_NEGATIVE,
         "stall_time": NON_NEGATIVE, "max_resets": NON_NEGATIVE, "shift_time": NON_NEGATIVE,

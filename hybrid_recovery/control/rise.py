@@ -8,7 +8,8 @@ pose (h*, q*) along one profile s(t):
     s(τ) = 10τ³ − 15τ⁴ + 6τ⁵,   τ = (t − t₀)/T ∈ [0, 1]
     h_ref(t) = h₀ + s (h* − h₀),   q_ref(t) = q₀ + s (q* − q₀)
 
-(zero velocity and acceleration at both ends). :class:`~.balance_controller.
+(zero velocity and acceleration at both ends), T = (h* − h₀)/v̄ at a mean CoM speed v̄
+(:meth:`~.config.RiseConfig.profile_duration`). :class:`~.balance_controller.
 BalanceController` tracks them (:meth:`~.balance_controller.BalanceController.rise`).
 
 A start that lands with the knees at their flexion limit can splay the knees through the

@@ -44,7 +44,7 @@ GROUND_PUSH_UP = PushUpConfig(duration=2.0)
 """The push-up over 2 s (its default: 3 s)."""
 GROUND_TO_SQUAT = ToSquatConfig(time_scale=0.85)
 """Hands and knees → squat over 6.5 s (its stages' own pace: 7.6 s). With the three, the
-chain from supine reaches its squat at ~14.3 s and stands by ~17.5 s, inside the paper's
+chain from supine reaches its squat at ~14.3 s and stands by ~16.8 s, inside the paper's
 20 s trials (at its own pace it stands at ~25.6 s: ``docs/experiments.md`` §15)."""
 GROUND_KNEEL = KneelMoveConfig(bow_time=1.0, bow_settle=0.3, push_up=GROUND_PUSH_UP,
                                push_up_settle=0.3, to_squat=GROUND_TO_SQUAT)
