@@ -22,6 +22,7 @@ from hybrid_recovery.getup.kneel_move import (
 from hybrid_recovery.getup.to_squat import (
     TO_SQUAT_KEYFRAMES,
     TO_SQUAT_STAGES,
+    ToSquat,
     ToSquatConfig,
     closest_in_polygon,
     plan_keyframes,
@@ -94,6 +95,33 @@ def test_planned_stance_knee_barely_turns_as_the_left_foot_comes_forward(model, 
     before, after = keyframes["hands_knees"][qadr], keyframes["left_foot"][qadr]
     for j in (6, 8, 11):  # right hip yaw, right hip roll, right ankle roll
         assert abs(after[j] - before[j]) < 0.1, (j, before[j], after[j])
+
+
+def test_the_squat_carries_the_com_toward_the_soles_centres_with_the_heels_up(model,
+                                                                              keyframes):
+    """The squat keyframe with both ankles pitched 0.15 rad, so that only one edge of each
+    sole lies within 1 cm of the lowest point: the last stage's c_r goes from the edge of
+    those points ``support_depth`` of the way to the midpoint of the soles' centres (the
+    sole sites, where the QP's rise puts ξ_ref), not to the load-bearing edge's middle
+    (6 cm ahead of it at the chain's squats: docs/experiments.md §15)."""
+    data = mujoco.MjData(model)
+    data.qpos[:] = keyframes["squat"]
+    qadr = joint_addresses(model)[0]
+    data.qpos[qadr[[4, 10]]] += 0.15  # the ankles' pitch
+    mujoco.mj_forward(model, data)
+    move = ToSquat()
+    move.reset(model, data)
+    move.stage = len(TO_SQUAT_STAGES) - 2
+    move._next_stage(data)  # the squat stage, from this state
+    assert TO_SQUAT_STAGES[move.stage].name == "squat"
+    points = move.qp.points(("left_foot", "right_foot"))
+    assert len(points.names) == 4  # one edge of each sole bears load
+    sites = np.mean([data.site(f"{s}_foot").xpos[:2] for s in ("left", "right")], axis=0)
+    edge = closest_in_polygon(points.positions[:, :2], move._c0)
+    np.testing.assert_allclose(move._c1, edge + move.config.support_depth * (sites - edge),
+                               atol=1e-12)
+    edge_middle = points.positions[:, :2].mean(axis=0)
+    assert np.linalg.norm(edge_middle - sites) > 0.1  # what the load-bearing points gave
 
 
 def test_stages_name_known_keyframes_and_contacts():

@@ -316,6 +316,36 @@ def test_plot_deployment_pace_reads_each_checkpoints_rates_and_env_steps(tmp_pat
         module.checkpoint_rates(tmp_path / "qp")
 
 
+def test_plot_recipe_pace_finds_each_milestone_and_rejects_a_bad_rate(tmp_path, monkeypatch,
+                                                                      capsys):
+    """Milestone 1 needs sitting and supine at 50 %, 2 and 3 all five at 80 / 93.4 %;
+    a checkpoint that misses one pose does not count; a rate above 1 is an error naming
+    its line."""
+    module = _script("plot_recipe_pace")
+    poses = ("kneeling", "sitting", "squatting", "standing", "supine")
+    lines = ["arm,iteration,m_env_steps,pose,rate,trials"]
+    for it, m, rates in [(1, 10.0, (0.0, 0.6, 1.0, 1.0, 0.4)),  # supine short of 1
+                         (2, 20.0, (0.7, 0.5, 1.0, 1.0, 0.5)),  # milestone 1
+                         (3, 30.0, (0.9, 0.8, 0.95, 0.95, 0.8)),  # 2
+                         (4, 40.0, (1.0, 0.94, 0.94, 1.0, 0.934))]:  # 3
+        lines += [f"a,{it},{m},{p},{r},20" for p, r in zip(poses, rates, strict=True)]
+    lines += ["b,5,1.5,sitting,0.9,", "b,5,1.5,supine,0.9,"]  # no intervals: blank trials
+    table = tmp_path / "pace.csv"
+    table.write_text("\n".join(lines) + "\n")
+    monkeypatch.setattr(sys, "argv", ["plot_recipe_pace.py", str(table),
+                                      "--out", str(tmp_path / "pace.png")])
+    module.main()
+    out = capsys.readouterr().out.splitlines()
+    assert out == ["a (evaluated to 40.0 M): milestone 1: 20.0 M, milestone 2: 30.0 M, "
+                   "milestone 3: 40.0 M",
+                   "b (evaluated to 1.5 M): milestone 1: 1.5 M, milestone 2: not reached, "
+                   "milestone 3: not reached"]
+    assert (tmp_path / "pace.png").stat().st_size > 0
+    table.write_text("arm,iteration,m_env_steps,pose,rate,trials\na,1,1.0,sitting,1.5,10\n")
+    with pytest.raises(ValueError, match=r"pace.csv:2: rate 1.5 outside \[0, 1\]"):
+        module.read_table(table)
+
+
 @pytest.mark.warp
 def test_backend_parity_probe_reports_each_pose_within_the_parity_tolerances(monkeypatch,
                                                                              capsys):

@@ -40,6 +40,7 @@ from hybrid_recovery.getup.contact_tasks import (
     pelvis_tasks,
     posture_task,
 )
+from hybrid_recovery.getup.contacts import FLOOR_CONTACTS, contact_points_world
 from hybrid_recovery.getup.keyframes import HANDS_KNEES
 from hybrid_recovery.getup.smoothstep import smoothstep_profile
 from hybrid_recovery.robot import constants
@@ -273,15 +274,24 @@ class ToSquat:
     def _com_target(self) -> np.ndarray:
         """c_r at the stage's end: the CoM at the stage's start moved into the polygon
         of the support points, ``support_depth`` of the way from its edge to the middle
-        of the support contacts (the mean of each contact's points) [m], shape (2,)."""
+        of the support contacts (the mean of each contact's centre) [m], shape (2,)."""
         stage = self.stages[self.stage]
         points = self.qp.points(stage.support)
-        names = np.array(points.names)
         xy = points.positions[:, :2]
-        middle = np.mean([xy[names == c].mean(axis=0) for c in dict.fromkeys(points.names)],
-                         axis=0)
+        middle = np.mean([self._centre(c) for c in dict.fromkeys(points.names)], axis=0)
         edge = closest_in_polygon(xy, self._c0)
         return edge + self.config.support_depth * (middle - edge)
+
+    def _centre(self, name: str) -> np.ndarray:
+        """The mean of all of a contact's points, in the world (x, y) [m], shape (2,): a
+        sole's centre also while only its toes bear load (a squat's heels lift ~1 cm), so
+        that the squat ends with the CoM over the middle of the feet, where the QP's rise
+        can hold its capture point (with the load-bearing points' mean, 6 cm ahead of
+        it: ``docs/experiments.md`` §15)."""
+        contact = FLOOR_CONTACTS[name]
+        data, body = self.qp.reader.data, self.qp.model.body(contact.body).id
+        world = contact_points_world(contact, data.xpos[body], data.xmat[body].reshape(3, 3))
+        return world[:, :2].mean(axis=0)
 
     def _com_task(self, profile: Profile) -> Task:
         """c̈°_xy toward c_r(s) (module docstring), ``profile`` (s, ṡ, s̈) now."""
