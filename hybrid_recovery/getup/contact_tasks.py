@@ -37,7 +37,7 @@ class ContactTaskGains:
         kp_height: K_z [1/s²]. kd_height: D_z [1/s]. w_height: task weight.
         kd_pelvis: D_ω, pelvis angular velocity damping [1/s]. w_pelvis: its weight.
         kp_landing: K_l [1/s²]. kd_landing: D_l [1/s]. w_landing: weight of the landing
-            tasks.
+            tasks (the to-squat's: :data:`~hybrid_recovery.getup.to_squat.SWING_GAINS`).
     """
 
     kp_posture: float = 100.0

@@ -135,6 +135,14 @@ TO_SQUAT_STAGES: tuple[SquatStage, ...] = (
 """hands and knees → left foot forward → right foot forward → CoM over the feet → squat."""
 
 
+SWING_GAINS = ContactTaskGains(w_landing=1000.0)
+"""The to-squat's task gains: the landing task at 10× the pelvis height's weight and
+1000× the posture's, so that a swung foot comes down where the posture's keyframe,
+planned for other hand and foot places, would hold it in the air (at the push-up's 100
+the right foot of ``swing_right`` was still up in 5 of 5 kneeling failures traced, and
+``bear`` carried the CoM over it: ``docs/experiments.md`` §15)."""
+
+
 @dataclass(frozen=True)
 class ToSquatConfig:
     """Settings of :class:`ToSquat`.
@@ -146,7 +154,7 @@ class ToSquatConfig:
         range_factor: Keyframes solved within the joint ranges × this about their middle.
         time_scale: Every stage's duration is multiplied by this [-] (< 1: the same
             keyframes, faster).
-        gains: Gains and weights of the posture, pelvis and landing tasks.
+        gains: Gains and weights of the posture, pelvis and landing tasks (:data:`SWING_GAINS`).
         qp: Settings of the QP.
     """
 
@@ -156,7 +164,7 @@ class ToSquatConfig:
     support_depth: float = 0.8
     range_factor: float = 0.9
     time_scale: float = 1.0
-    gains: ContactTaskGains = field(default_factory=ContactTaskGains)
+    gains: ContactTaskGains = SWING_GAINS
     qp: ContactQpConfig = field(default_factory=ContactQpConfig)
 
     def __post_init__(self) -> None:
