@@ -20,7 +20,7 @@ import mujoco
 import numpy as np
 import placo
 
-from hybrid_recovery.getup.contacts import FLOOR_CONTACTS, contact_points_world
+from hybrid_recovery.getup.contacts import FLOOR_CONTACTS, contact_points_in
 from hybrid_recovery.getup.keyframes import (
     HANDS_KNEES,
     KNEE_CHEST,
@@ -196,9 +196,7 @@ class ContactIk:
         mujoco.mj_kinematics(model, data)
         heights = {}
         for name in keyframe.contacts:
-            c = FLOOR_CONTACTS[name]
-            body = model.body(c.body).id
-            world = contact_points_world(c, data.xpos[body], data.xmat[body].reshape(3, 3))
+            world = contact_points_in(model, data, FLOOR_CONTACTS[name])
             heights[name] = world[points[name], 2]
         mid, half = (self.lo + self.hi) / 2, (self.hi - self.lo) / 2 / self.range_factor
         use = float(np.max(np.abs(qpos[self._qadr] - mid) / half))

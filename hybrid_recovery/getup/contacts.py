@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import mujoco
 import numpy as np
 
 ACTIVE_BAND = 0.01
@@ -111,6 +112,14 @@ def contact_points_world(contact: FloorContact, origin: np.ndarray,
     """
     local = np.asarray(contact.points, dtype=float)
     return origin + local @ rotation.T - np.array([0.0, 0.0, contact.radius])
+
+
+def contact_points_in(model: mujoco.MjModel, data: mujoco.MjData,
+                      contact: FloorContact) -> np.ndarray:
+    """:func:`contact_points_world` of ``contact`` at its body's pose in ``data`` (xpos,
+    xmat, as the last kinematics left them), shape (k, 3) [m]."""
+    body = model.body(contact.body).id
+    return contact_points_world(contact, data.xpos[body], data.xmat[body].reshape(3, 3))
 
 
 def active_points(points: np.ndarray, band: float = ACTIVE_BAND) -> np.ndarray:

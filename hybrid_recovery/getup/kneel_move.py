@@ -17,7 +17,7 @@ import numpy as np
 
 from hybrid_recovery.checks import NON_NEGATIVE, POSITIVE, Range, check_fields
 from hybrid_recovery.control.policy_controller import pd_torque
-from hybrid_recovery.getup.contacts import FLOOR_CONTACTS, contact_points_world
+from hybrid_recovery.getup.contacts import FLOOR_CONTACTS, contact_points_in
 from hybrid_recovery.getup.ground_state import read_ground_pose
 from hybrid_recovery.getup.keyframes import KNEE_CHEST
 from hybrid_recovery.getup.push_up import PushUp, PushUpConfig, on_hands_and_knees
@@ -67,9 +67,7 @@ def is_kneeling(model: mujoco.MjModel, data: mujoco.MjData, max_knee_height: flo
     a squat's knees are 0.27 m up or more), the spine within acos(min_spine_z) of
     vertical, no seat body (pelvis, hip links) on the floor."""
     for name in ("left_knee", "right_knee"):
-        contact = FLOOR_CONTACTS[name]
-        body = model.body(contact.body).id
-        low = contact_points_world(contact, data.xpos[body], data.xmat[body].reshape(3, 3))
+        low = contact_points_in(model, data, FLOOR_CONTACTS[name])
         if float(low[:, 2].min()) > max_knee_height:
             return False
     pose = read_ground_pose(model, data)

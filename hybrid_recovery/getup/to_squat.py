@@ -40,7 +40,7 @@ from hybrid_recovery.getup.contact_tasks import (
     pelvis_tasks,
     posture_task,
 )
-from hybrid_recovery.getup.contacts import FLOOR_CONTACTS, contact_points_world
+from hybrid_recovery.getup.contacts import FLOOR_CONTACTS, contact_points_in
 from hybrid_recovery.getup.keyframes import HANDS_KNEES
 from hybrid_recovery.getup.smoothstep import smoothstep_profile
 from hybrid_recovery.robot import constants
@@ -296,9 +296,7 @@ class ToSquat:
         that the squat ends with the CoM over the middle of the feet, where the QP's rise
         can hold its capture point (with the load-bearing points' mean, 6 cm ahead of
         it: ``docs/experiments.md`` §15)."""
-        contact = FLOOR_CONTACTS[name]
-        data, body = self.qp.reader.data, self.qp.model.body(contact.body).id
-        world = contact_points_world(contact, data.xpos[body], data.xmat[body].reshape(3, 3))
+        world = contact_points_in(self.qp.model, self.qp.reader.data, FLOOR_CONTACTS[name])
         return world[:, :2].mean(axis=0)
 
     def _com_task(self, profile: Profile) -> Task:
