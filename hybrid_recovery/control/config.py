@@ -186,15 +186,18 @@ class RiseConfig:
     """The QP's joint-limit margin δ while rising [rad] (standing: ``QpConfig.limit_margin``,
     0.02). Legs that straighten under a pitched pelvis bring the hips' yaw and roll to
     their ranges; the standing margin then leaves the QP almost no acceleration there."""
-    stall_time: float = 0.5
+    stall_time: float = 0.25
     """A rise whose profile is over with the CoM still below ``end_com_height`` for this
     long is locked (the hips' yaw and roll at their ranges, the pelvis pitched): the
-    stance is reset, one foot re-placed beside the other [s]."""
+    stance is reset, one foot re-placed beside the other [s]. The locked CoM has stopped
+    by the profile's end: waiting longer only delays the reset."""
     max_resets: int = 2
     """Stance resets per rise."""
-    shift_time: float = 2.0
+    shift_time: float = 1.0
     """A reset carries ξ_ref onto the stance sole for at most this long before the other
-    foot lifts [s]."""
+    foot lifts [s]. A locked CoM seldom comes within ``shift_tolerance`` of the sole, so
+    this is mostly the shift's length: 1 s, not 2 s, leaves a start that falls after its
+    reset a second more for the ground chain inside the 20 s trial."""
     shift_tolerance: float = 0.04
     """... or until the CoM is this close to the stance sole's centre [m]."""
 
