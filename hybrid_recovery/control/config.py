@@ -196,8 +196,7 @@ class RiseConfig:
     shift_time: float = 1.0
     """A reset carries ξ_ref onto the stance sole for at most this long before the other
     foot lifts [s]. A locked CoM seldom comes within ``shift_tolerance`` of the sole, so
-    this is mostly the shift's length: 1 s, not 2 s, leaves a start that falls after its
-    reset a second more for the ground chain inside the 20 s trial."""
+    this is mostly the shift's length (``docs/experiments.md`` §15)."""
     shift_tolerance: float = 0.04
     """... or until the CoM is this close to the stance sole's centre [m]."""
 
