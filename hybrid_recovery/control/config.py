@@ -189,8 +189,8 @@ class RiseConfig:
     stall_time: float = 0.25
     """A rise whose profile is over with the CoM still below ``end_com_height`` for this
     long is locked (the hips' yaw and roll at their ranges, the pelvis pitched): the
-    stance is reset, one foot re-placed beside the other [s]. The locked CoM has stopped
-    by the profile's end: waiting longer only delays the reset."""
+    stance is reset, one foot re-placed beside the other [s] (``docs/experiments.md``
+    §15)."""
     max_resets: int = 2
     """Stance resets per rise."""
     shift_time: float = 1.0

@@ -138,9 +138,8 @@ TO_SQUAT_STAGES: tuple[SquatStage, ...] = (
 SWING_GAINS = ContactTaskGains(w_landing=1000.0)
 """The to-squat's task gains: the landing task at 10× the pelvis height's weight and
 1000× the posture's, so that a swung foot comes down where the posture's keyframe,
-planned for other hand and foot places, would hold it in the air (at the push-up's 100
-the right foot of ``swing_right`` was still up in 5 of 5 kneeling failures traced, and
-``bear`` carried the CoM over it: ``docs/experiments.md`` §15)."""
+planned for other hand and foot places, would hold it in the air (the push-up keeps
+the default 100; why: ``docs/experiments.md`` §15)."""
 
 
 @dataclass(frozen=True)
