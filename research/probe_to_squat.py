@@ -13,7 +13,15 @@ rise accepted, stood, and their 95 % Wilson intervals. The replays leave out the
 the moves before the hand-over (``docs/experiments.md`` §15): a change to the to-squat or
 the rise is compared on the same states.
 
+``--servo`` asks whether the move can be carried by the policy's interface, joint PD
+(τ = K_P (q_ref − q) − K_D q̇, q_ref within the ranges × 0.9) in place of the QP's torques,
+before its states are labelled for the teacher (``training/teacher.py``): ``keyframe``
+servos to the stage's keyframe q_g (the label a* of a joint-PD ground move); ``inverse``
+to the target that gives the QP's torque, q_ref = q + (τ_QP + K_D q̇) / K_P, refreshed
+every ``--servo-every`` physics steps (10: 50 Hz, the policy's rate) and held between.
+
     python research/probe_to_squat.py --poses kneeling sitting supine --seeds 0:20
+    python research/probe_to_squat.py --poses sitting supine --seeds 0:20 --servo inverse
 """
 
 from __future__ import annotations
@@ -26,6 +34,7 @@ import mujoco
 import numpy as np
 
 from hybrid_recovery.control.balance_controller import BalanceController
+from hybrid_recovery.control.policy_controller import pd_torque
 from hybrid_recovery.control.torque_model import CONTROL_DT
 from hybrid_recovery.controllers.model import ModelController
 from hybrid_recovery.evaluation.scenario import Scenario
@@ -33,9 +42,15 @@ from hybrid_recovery.evaluation.success import wilson_interval
 from hybrid_recovery.evaluation.trial import eval_model, run_trial
 from hybrid_recovery.getup.relapse import com_height
 from hybrid_recovery.getup.to_squat import ToSquat, ToSquatConfig
+from hybrid_recovery.robot.action import TARGET_RANGE_FACTOR
+from hybrid_recovery.robot.constants import KD, KP
+from hybrid_recovery.robot.limits import SafetyLimits
+from hybrid_recovery.robot.mjcf import joint_addresses
 
 _CHECK_EVERY = 10
 """Physics steps between the rise's checks of the squat (20 ms)."""
+SERVOS = ("qp", "keyframe", "inverse")
+"""What drives the joints during the move (module docstring)."""
 
 
 class _HandOver(Exception):
@@ -63,10 +78,11 @@ def hand_over_state(pose: str, seed: int) -> dict | None:
     return state or None
 
 
-def replay(state: dict, rise_time: float, time_scale: float | None = None) -> str:
+def replay(state: dict, rise_time: float, time_scale: float | None = None,
+           servo: str = "qp", servo_every: int = 10) -> str:
     """``"stood"``, ``"fell"`` (the rise accepted the squat, the CoM ended at or below
     0.85 m) or ``"no_squat"`` from one kept state; the move at ``time_scale`` (None: the
-    controller's pace kept with the state)."""
+    controller's pace kept with the state), its joints driven by ``servo`` (:data:`SERVOS`)."""
     model = eval_model(None, CONTROL_DT, True, "default")
     data = mujoco.MjData(model)
     data.qpos[:], data.qvel[:], data.time = state["qpos"], state["qvel"], state["time"]
@@ -74,9 +90,17 @@ def replay(state: dict, rise_time: float, time_scale: float | None = None) -> st
     pace = float(state["time_scale"]) if time_scale is None else time_scale
     move = ToSquat(ToSquatConfig(time_scale=pace))
     move.reset(model, data)
-    balance, steps, done_at = BalanceController(), 0, None
+    qadr, dadr = joint_addresses(model)
+    lo, hi = SafetyLimits.from_model(model).q_ref_bounds(TARGET_RANGE_FACTOR)
+    balance, steps, done_at, q_ref = BalanceController(), 0, None, None
     while True:
-        data.ctrl[:] = move(model, data)
+        tau = move(model, data)
+        q, dq = data.qpos[qadr], data.qvel[dadr]
+        if servo == "keyframe":
+            q_ref = move.goal
+        elif servo == "inverse" and (q_ref is None or steps % servo_every == 0):
+            q_ref = q + (tau + KD * dq) / KP
+        data.ctrl[:] = tau if servo == "qp" else pd_torque(np.clip(q_ref, lo, hi), q, dq)
         mujoco.mj_step(model, data)
         steps += 1
         if not move.done:
@@ -120,13 +144,15 @@ def _states(path: Path, poses: list[str], seeds: range, workers: int) -> dict[st
 
 
 def probe(poses: list[str], seeds: range, states_path: Path, rise_time: float = 5.0,
-          workers: int = 2, time_scale: float | None = None) -> dict[str, dict]:
+          workers: int = 2, time_scale: float | None = None, servo: str = "qp",
+          servo_every: int = 10) -> dict[str, dict]:
     """{pose: {starts, squats, stood, squat_interval, stood_interval}} over the kept states."""
+    if servo not in SERVOS:
+        raise ValueError(f"unknown servo '{servo}': one of {list(SERVOS)}")
     states = _states(states_path, poses, seeds, workers)
     keys = sorted(states)
-    outcomes = dict(zip(keys, _starmap(replay, [(states[k], rise_time, time_scale) for k in keys],
-                                          workers),
-                        strict=True))
+    jobs = [(states[k], rise_time, time_scale, servo, servo_every) for k in keys]
+    outcomes = dict(zip(keys, _starmap(replay, jobs, workers), strict=True))
     out = {}
     for pose in poses:
         mine = [o for k, o in outcomes.items() if k.rsplit("_", 1)[0] == pose]
@@ -146,11 +172,15 @@ def main() -> None:
     parser.add_argument("--rise", type=float, default=5.0, help="rise time after the squat [s]")
     parser.add_argument("--time-scale", type=float, default=None,
                         help="the move's pace (default: the controller's, kept per state)")
+    parser.add_argument("--servo", choices=SERVOS, default="qp",
+                        help="what drives the joints during the move (module docstring)")
+    parser.add_argument("--servo-every", type=int, default=10,
+                        help="physics steps an inverse servo's target is held (10: 50 Hz)")
     parser.add_argument("--workers", type=int, default=2)
     args = parser.parse_args()
     first, end = (int(x) for x in args.seeds.split(":"))
     out = probe(args.poses, range(first, end), args.states, args.rise, args.workers,
-                args.time_scale)
+                args.time_scale, args.servo, args.servo_every)
     print(f"{'pose':10s} {'starts':>6s} {'squat accepted':>24s} {'stood':>24s}")
     for pose, row in out.items():
         sq, st = row["squat_interval"], row["stood_interval"]

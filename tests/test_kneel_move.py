@@ -124,6 +124,26 @@ def test_the_squat_carries_the_com_toward_the_soles_centres_with_the_heels_up(mo
     assert np.linalg.norm(edge_middle - sites) > 0.1  # what the load-bearing points gave
 
 
+def test_the_goal_is_the_stage_keyframes_joints(model, keyframes):
+    """``ToSquat.goal`` is q_g of the stage under way, in motor order: each stage's
+    keyframe's joints, the last stage's once done (the joints the probe's keyframe servo
+    and a teacher label would drive to)."""
+    data = mujoco.MjData(model)
+    data.qpos[:] = keyframes["hands_knees"]
+    mujoco.mj_forward(model, data)
+    qadr = joint_addresses(model)[0]
+    move = ToSquat()
+    move.reset(model, data)
+    for k, stage in enumerate(TO_SQUAT_STAGES):
+        assert move.stage == k
+        np.testing.assert_array_equal(move.goal, move._keyframes[stage.keyframe][qadr])
+        move._next_stage(data)
+    assert move.done
+    np.testing.assert_array_equal(move.goal, keyframes["squat"][qadr])
+    move.goal[:] = 0.0  # a copy
+    assert np.any(move.goal != 0.0)
+
+
 def test_stages_name_known_keyframes_and_contacts():
     for stage in TO_SQUAT_STAGES:
         assert stage.keyframe in TO_SQUAT_KEYFRAMES

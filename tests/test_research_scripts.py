@@ -15,6 +15,8 @@ import pytest
 import torch
 
 from hybrid_recovery.dynamics import GRAVITY
+from hybrid_recovery.evaluation.trial import eval_model
+from hybrid_recovery.getup.to_squat import plan_keyframes
 from hybrid_recovery.robot.constants import DEFAULT_JOINT_POS
 from hybrid_recovery.training import TrainConfig, train
 
@@ -383,9 +385,14 @@ def test_to_squat_probe_keeps_the_hand_over_states_and_counts_per_pose(tmp_path,
         return {"qpos": np.full(3, seed), "qvel": np.zeros(2), "time": 6.0, "time_scale": 0.85}
 
     outcome = {0: "stood", 1: "fell", 3: "no_squat", 4: "stood"}
+    servos: set[tuple[str, int]] = set()
+
+    def replay(s, rise, time_scale=None, servo="qp", servo_every=10):
+        servos.add((servo, servo_every))
+        return outcome[int(s["qpos"][0])]
+
     monkeypatch.setattr(module, "hand_over_state", state)
-    monkeypatch.setattr(module, "replay",
-                        lambda s, rise, time_scale=None: outcome[int(s["qpos"][0])])
+    monkeypatch.setattr(module, "replay", replay)
     path = tmp_path / "states.npz"
     out = module.probe(["kneeling"], range(4), path, workers=1)
     assert asked == [("kneeling", s) for s in range(4)]
@@ -395,3 +402,21 @@ def test_to_squat_probe_keeps_the_hand_over_states_and_counts_per_pose(tmp_path,
     asked.clear()
     again = module.probe(["kneeling"], range(5), path, workers=1)
     assert asked == [("kneeling", 4)] and again["kneeling"]["starts"] == 4
+    assert servos == {("qp", 10)}
+    module.probe(["kneeling"], range(5), path, workers=1, servo="inverse", servo_every=1)
+    assert servos == {("qp", 10), ("inverse", 1)}
+    with pytest.raises(ValueError, match="unknown servo 'torque': one of"):
+        module.probe(["kneeling"], range(5), path, workers=1, servo="torque")
+
+
+def test_to_squat_probe_servos_drive_the_same_move():
+    """From hands and knees the move's three servos run to an outcome; the keyframe servo
+    (PD to q_g) does not bring the robot to a squat the rise accepts from this start, the
+    QP's torques do (the figures of docs/experiments.md §12)."""
+    module = _script("probe_to_squat")
+    model = eval_model(None, 0.002, True, "default")
+    qpos = plan_keyframes(model)["hands_knees"]
+    state = {"qpos": qpos, "qvel": np.zeros(model.nv), "time": 0.0, "time_scale": 0.85}
+    outcomes = {servo: module.replay(state, 1.0, servo=servo) for servo in module.SERVOS}
+    assert set(outcomes.values()) <= {"stood", "fell", "no_squat"}
+    assert outcomes["qp"] != "no_squat" and outcomes["keyframe"] == "no_squat", outcomes

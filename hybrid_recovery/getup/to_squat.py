@@ -274,6 +274,12 @@ class ToSquat:
         self._c1 = self._com_target() if stage.support else self._c0
         self.log.append((round(self._t0, 3), stage.name))
 
+    @property
+    def goal(self) -> np.ndarray:
+        """q_g (27,) [rad], motor order: the joints of the keyframe the stage under way
+        moves to (the last stage's once done)."""
+        return self._q1.copy()
+
     def _current(self) -> SquatStage:
         """The stage under way; once done, the last."""
         return self.stages[min(self.stage, len(self.stages) - 1)]
