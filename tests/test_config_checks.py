@@ -18,6 +18,7 @@ from hybrid_recovery.control import config as control_config
 from hybrid_recovery.envs import config as env_config
 from hybrid_recovery.envs.config_values import INFINITE, RANGES
 from hybrid_recovery.envs.rise_starts import load_rises
+from hybrid_recovery.getup import move_executor
 from hybrid_recovery.getup.contact_qp import ContactQpConfig
 from hybrid_recovery.getup.contact_tasks import ContactTaskGains
 from hybrid_recovery.getup.feasibility import FeasibilityConfig
@@ -65,7 +66,8 @@ def _cases(bad: float):
     for cls in CONFIGS:
         for name, hint in _number_fields(cls):
             default = getattr(cls(), name)
-            if bad == math.inf and any(RANGES_KEY(cls, name) == key for key in INFINITE):
+            if bad == math.inf and (any(RANGES_KEY(cls, name) == key for key in INFINITE)
+                                    or (cls is MoveConfig and name in move_executor.INFINITE)):
                 continue
             if hint is int or typing.get_args(hint) == (int,):
                 continue  # an int field takes no NaN or inf: refused as not an integer
@@ -99,6 +101,8 @@ def test_infinity_is_refused_but_where_it_means_no_limit(cls, name, value):
 def test_no_limit_fields_take_infinity():
     assert INFINITE == {"assist.max_height"}
     assert env_config.AssistConfig(max_height=math.inf).max_height == math.inf
+    assert move_executor.INFINITE == ("prone_lean",)
+    assert MoveConfig().prone_lean == math.inf  # the hybrid's moves: never
 
 
 def test_every_number_of_the_env_config_has_a_range():

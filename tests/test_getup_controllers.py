@@ -16,6 +16,7 @@ from hybrid_recovery.controllers import HybridController, ModelController, make
 from hybrid_recovery.evaluation.scenario import Scenario
 from hybrid_recovery.evaluation.trial import eval_model, run_trial, start_state
 from hybrid_recovery.getup.contact_map import maps_contacts
+from hybrid_recovery.getup.move_executor import MoveConfig
 from hybrid_recovery.getup.relapse import GetupConfig, com_height, lying_still
 from hybrid_recovery.policy import SHIPPED, is_shipped, resolve_policy
 from hybrid_recovery.robot import constants
@@ -53,6 +54,8 @@ def test_model_controller_moves_to_knee_chest_pushes_up_and_goes_on_to_the_squat
     assert any(not ok for t, ok in seen if t > squat["start"] + 1.0)  # a foot comes forward
     assert not row["success"] and not row["not_applicable"]
     assert row["peak_torque"] <= 300.0 + 1e-9
+    controller.mode = model_module.QP  # as once the rise from the squat has begun
+    assert controller.info()["moves"] == info["moves"]  # a chain that stands keeps its log
 
 
 def test_model_controller_reaches_hands_and_knees_on_the_manufacturer_meshes():
@@ -82,6 +85,24 @@ def test_model_controller_re_plans_after_a_push_up_that_misses(monkeypatch):
     assert [p["hands_and_knees"] for p in info["push_ups"]] == [False]
     assert [m for _, _, m in info["moves"]][:2] == ["tuck from prone", "in knee_chest"]
     assert info["final_mode"] == "moves" and info["ground_state"] == "knee_chest"
+
+
+def test_model_controller_hands_moves_stuck_upright_to_the_qp(monkeypatch):
+    """Moves that end where no move leads on but the QP applies (here: a standing start
+    given to the moves, classified at once: ``upright``) hand the robot to the QP's
+    balance, not to a joint-PD hold (under which this start falls)."""
+    reset = ModelController.reset
+
+    def moves_first(self, model, data):
+        reset(self, model, data)
+        self._start_moves(model, data)
+
+    monkeypatch.setattr(ModelController, "reset", moves_first)
+    controller = ModelController(MoveConfig(settle_time=0.0))
+    row = run_trial(controller, Scenario("standing", duration=3.0, seed=0, noise=0.25))
+    info = row["controller_info"]
+    assert [m for _, _, m in info["moves"]] == ["in upright: no move from upright"]
+    assert info["final_mode"] == "qp" and row["success"]
 
 
 def test_model_controller_balances_with_the_qp_when_standing():

@@ -124,6 +124,10 @@ def test_move_config_messages():
     with pytest.raises(ValueError) as err:
         MoveConfig(time_scale=0.0)
     assert str(err.value) == "MoveConfig.time_scale must be > 0, got 0.0"
+    with pytest.raises(ValueError) as err:
+        MoveConfig(prone_lean=-0.1)
+    assert str(err.value) == "MoveConfig.prone_lean must be >= 0, got -0.1"
+    assert MoveConfig(prone_lean=float("inf")).prone_lean == float("inf")
 
 
 def test_a_falling_robot_is_classified_where_it_comes_to_rest():
@@ -141,10 +145,28 @@ def test_a_falling_robot_is_classified_where_it_comes_to_rest():
     moves = controller.moves
     [fell] = [e.time for e in controller.balance.events if e.kind == "rise_failed"]
     first = moves.events[0]
-    assert first.kind == "move" and first.message == "tuck from prone", moves.events
+    assert first.kind == "move" and first.message.endswith(" from prone"), moves.events
     settled = fell + moves.config.settle_time
     assert first.time > settled + 0.2  # waited past the settle time
     assert max(v for t, v in samples if settled <= t < first.time) >= moves.config.rest_speed
+
+
+def test_a_prone_torso_on_its_side_is_laid_flat_before_the_tuck():
+    """Squatting seed 1000054 falls out of its rise onto its chest rolled ~40° toward its
+    right side (|z| of the torso's left axis 0.5–0.7): the tuck from there ends in prone
+    again, each retry alike. With ``prone_lean`` (the ``model`` controller's 0.4) the
+    ``to_front`` move lays it flat first and the tuck then arrives in knee-chest."""
+    lean = ModelController().moves.config.prone_lean
+    assert lean == pytest.approx(0.4)
+    controller = ModelController()
+    run_trial(controller, Scenario("squatting", duration=11.0, seed=1000054))
+    events = [(e.kind, e.message) for e in controller.moves.events]
+    assert events == [("move", "to_front from prone"), ("move", "tuck from prone"),
+                      ("arrived", "in knee_chest")], events
+    flat = ModelController(MoveConfig(time_scale=0.5))  # prone_lean inf: straight to the tuck
+    run_trial(flat, Scenario("squatting", duration=11.0, seed=1000054))
+    assert [e.message for e in flat.moves.events][:2] == [
+        "tuck from prone", "tuck ended in prone, not knee_chest"]
 
 
 def test_the_first_classification_waits_at_most_max_settle(model):

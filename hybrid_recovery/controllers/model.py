@@ -26,7 +26,7 @@ from hybrid_recovery.getup.kneel_move import (
     KneelMoveConfig,
     is_kneeling,
 )
-from hybrid_recovery.getup.move_executor import ARRIVED, GroundMoves, MoveConfig
+from hybrid_recovery.getup.move_executor import ARRIVED, STUCK, GroundMoves, MoveConfig
 from hybrid_recovery.getup.push_up import PushUp, PushUpConfig, on_hands_and_knees
 from hybrid_recovery.getup.relapse import com_height, move_events
 from hybrid_recovery.getup.to_squat import ToSquat, ToSquatConfig
@@ -37,9 +37,10 @@ from hybrid_recovery.robot.mjcf import joint_addresses
 MOVES, QP, PUSH_UP, HOLD, KNEEL, TO_SQUAT = ("moves", "qp", "push_up", "hold", "kneel",
                                              "to_squat")
 
-GROUND_MOVES = MoveConfig(time_scale=0.5)
-"""The PD moves to knee-chest at twice their keyframes' pace: knee-chest at 6.4 s from a
-supine start instead of 12.3 s."""
+GROUND_MOVES = MoveConfig(time_scale=0.5, prone_lean=0.4)
+"""The PD moves to knee-chest at twice their keyframes' pace (knee-chest at 6.4 s from a
+supine start instead of 12.3 s), a prone torso rolled more than ~24° toward a side laid
+flat before the tuck (``MoveConfig.prone_lean``)."""
 GROUND_PUSH_UP = PushUpConfig(duration=2.0)
 """The push-up over 2 s (its default: 3 s)."""
 GROUND_TO_SQUAT = ToSquatConfig(time_scale=0.85)
@@ -57,7 +58,9 @@ class ModelController:
     """QP balance when up; from a crouch on both feet the QP's rise; from a kneel the kneel
     move, then the rise; when down, ground moves to knee-chest, the push-up to hands and
     knees, hands and knees → squat, then the rise (``--controller model``). Where the squat
-    is not reached or the rise cannot start, it holds hands and knees.
+    is not reached or the rise cannot start, it holds hands and knees; where the moves have
+    no move from the state they end in and the QP applies there (a move that ends upright,
+    a crouch the rise accepts), the QP takes over.
 
     Contract: torque output τ (27,) [N·m] at 2 ms on the torque model. A push-up that does
     not end on hands and knees re-plans the moves from the state it left.
@@ -96,6 +99,7 @@ class ModelController:
     def reset(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         self.balance.reset(model, data)
         self.move_log: list[tuple[float, str, str]] = []
+        self._moves_ran = False
         lo, hi = SafetyLimits.from_model(model).q_ref_bounds(self.moves.config.range_factor)
         self._hold_target = np.clip(KEYFRAMES[self.push_up.config.keyframe], lo, hi)
         self._qadr, self._dadr = joint_addresses(model)
@@ -121,6 +125,11 @@ class ModelController:
         return self.moves.label if self.mode == MOVES else self.mode
 
     def _start_moves(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
+        """The ground moves from ``data``'s state; the earlier moves' events stay in the
+        log."""
+        if self._moves_ran:
+            self.move_log += move_events(self.moves)
+        self._moves_ran = True
         self.mode = MOVES
         self.moves.reset(model, data)
 
@@ -145,6 +154,10 @@ class ModelController:
             self._start_moves(model, data)
         if self.mode == MOVES:
             torque = self.moves(model, data)
+            if self.moves.status == STUCK and (self.balance.rise(model, data)
+                                               or self.balance.assess(model, data).applicable):
+                self.mode = QP  # no move from here, but the QP's model holds (e.g. upright)
+                return self.balance(model, data)
             if self.moves.status != ARRIVED or len(self.push_ups) >= self.max_push_ups:
                 return torque
             self.mode = PUSH_UP  # settled in knee-chest
@@ -157,8 +170,7 @@ class ModelController:
             arrived = on_hands_and_knees(model, data)[0]
             self.push_ups[-1].update(hands_and_knees=arrived,
                                      worst_torque_ratio=round(self.push_up.worst_ratio, 3))
-            if not arrived:  # re-plan; the earlier moves' events stay in the log
-                self.move_log += move_events(self.moves)
+            if not arrived:  # re-plan
                 self._start_moves(model, data)
                 return self.moves(model, data)
             self.mode = TO_SQUAT
@@ -185,16 +197,17 @@ class ModelController:
         return pd_torque(self._hold_target, data.qpos[self._qadr], data.qvel[self._dadr])
 
     def info(self) -> dict:
-        """What it did: the final mode, the kneel move's phases, the moves' events and end,
-        each push-up's start,
-        whether it ended on hands and knees and its worst torque ratio; while holding,
-        whether the robot was on hands and knees at the last check (every 0.25 s)."""
+        """What it did: the final mode, the kneel move's phases, every ground move's events
+        (also those of a chain that stood up) and, on the ground, where the moves ended;
+        each push-up's start, whether it ended on hands and knees and its worst torque
+        ratio; while holding, whether the robot was on hands and knees at the last check
+        (every 0.25 s)."""
         ground = self.mode not in (QP, KNEEL)
         rises = [e for e in self.balance.events if e.kind in ("rise", "risen", "rise_failed")]
         return {"final_mode": self.mode, "qp_went_down": self.balance.went_down,
                 "kneel": list(self.kneel.log),
                 "rise": [(round(e.time, 3), e.kind, e.message) for e in rises],
-                "moves": self.move_log + move_events(self.moves) if ground else [],
+                "moves": self.move_log + (move_events(self.moves) if self._moves_ran else []),
                 "ground_status": self.moves.status if ground else None,
                 "ground_state": self.moves.state if ground else None,
                 "push_ups": list(self.push_ups), "squats": list(self.squats),

@@ -52,6 +52,11 @@ class MoveConfig:
             start, at rest or not [s].
         time_scale: Every phase's duration and hold are multiplied by this [-] (< 1: the
             same keyframes, faster).
+        prone_lean: From prone with the torso rolled toward a side by more than this
+            (|z| of its left axis, the sine of the roll) the ``to_front`` move, hands
+            under the shoulders, runs before the tuck, once per arrival in prone (a
+            torso half on its side makes the tuck end in prone again: ``docs/
+            experiments.md`` §15); inf: never.
     """
 
     goal: str = "knee_chest"
@@ -61,6 +66,7 @@ class MoveConfig:
     rest_speed: float = 0.2
     max_settle: float = 3.0
     time_scale: float = 1.0
+    prone_lean: float = float("inf")
 
     def __post_init__(self) -> None:
         check_config(self)
@@ -69,8 +75,10 @@ class MoveConfig:
 RANGES: dict[str, Range] = {"range_factor": (0.0, False, 1.0),
                             "max_moves": (1, True, float("inf")), "settle_time": NON_NEGATIVE,
                             "rest_speed": POSITIVE, "max_settle": NON_NEGATIVE,
-                            "time_scale": POSITIVE}
+                            "time_scale": POSITIVE, "prone_lean": NON_NEGATIVE}
 """Field of :class:`MoveConfig` → its range."""
+INFINITE = ("prone_lean",)
+"""Fields of :class:`MoveConfig` where inf means "never"."""
 
 
 def check_config(config: MoveConfig) -> None:
@@ -87,7 +95,7 @@ def check_config(config: MoveConfig) -> None:
     reachable = sorted({m.end for m in MOVES.values()})
     if config.goal not in reachable:
         raise ValueError(f"no move ends in '{config.goal}': the moves reach {reachable}")
-    check_fields(config, RANGES)
+    check_fields(config, RANGES, infinite=INFINITE)
 
 
 class GroundMoves:
@@ -127,13 +135,18 @@ class GroundMoves:
 
     def _plan(self, model: mujoco.MjModel, data: mujoco.MjData) -> None:
         t = float(data.time)
-        self.state = classify(read_ground_pose(model, data))
+        pose = read_ground_pose(model, data)
+        self.state = classify(pose)
+        last = self.move.name if self.move is not None else ""
         self.move = None
         if self.state == self.config.goal:
             self.status = ARRIVED
             self.events.append(Event(t, "arrived", f"in {self.state}"))
             return
         name = NEXT_MOVE.get(self.state)
+        if (self.state == "prone" and abs(pose.left_z) > self.config.prone_lean
+                and last != "to_front"):
+            name = "to_front"  # flat on the chest first
         if name is None or self.moves_tried >= self.config.max_moves:
             self.status = STUCK
             why = (f"no move from {self.state}" if name is None
