@@ -125,6 +125,9 @@ def test_move_config_messages():
         MoveConfig(time_scale=0.0)
     assert str(err.value) == "MoveConfig.time_scale must be > 0, got 0.0"
     with pytest.raises(ValueError) as err:
+        MoveConfig(recheck_time=0.0)
+    assert str(err.value) == "MoveConfig.recheck_time must be > 0, got 0.0"
+    with pytest.raises(ValueError) as err:
         MoveConfig(prone_lean=-0.1)
     assert str(err.value) == "MoveConfig.prone_lean must be >= 0, got -0.1"
     assert MoveConfig(prone_lean=float("inf")).prone_lean == float("inf")
@@ -167,6 +170,20 @@ def test_a_prone_torso_on_its_side_is_laid_flat_before_the_tuck():
     run_trial(flat, Scenario("squatting", duration=11.0, seed=1000054))
     assert [e.message for e in flat.moves.events][:2] == [
         "tuck from prone", "tuck ended in prone, not knee_chest"]
+
+
+def test_moves_stuck_without_a_move_look_again_and_go_on():
+    """Squatting seed 1000073 falls out of its rise and rests a moment bent over its wrists
+    (``other``: no move), then topples onto its left side: the moves, stuck in ``other``,
+    classify again every ``recheck_time`` at rest and go on from the side (where they
+    were held in ``other`` for the rest of the trial)."""
+    controller = ModelController()
+    run_trial(controller, Scenario("squatting", duration=8.0, seed=1000073))
+    events = [(e.kind, e.message) for e in controller.moves.events]
+    assert events[:3] == [("stuck", "in other: no move from other"),
+                          ("move", "to_front from side"), ("move", "tuck from prone")], events
+    stuck, moved = controller.moves.events[0].time, controller.moves.events[1].time
+    assert moved - stuck >= controller.moves.config.recheck_time - 1e-9
 
 
 def test_the_first_classification_waits_at_most_max_settle(model):

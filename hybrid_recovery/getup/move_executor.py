@@ -52,6 +52,9 @@ class MoveConfig:
             start, at rest or not [s].
         time_scale: Every phase's duration and hold are multiplied by this [-] (< 1: the
             same keyframes, faster).
+        recheck_time: While stuck in a state with no move, the state is classified again
+            this often, with the pelvis at rest [s]; from a state with a move (e.g. toppled
+            from ``other`` onto a side) the plan goes on.
         prone_lean: From prone with the torso rolled toward a side by more than this
             (|z| of its left axis, the sine of the roll) the ``to_front`` move, hands
             under the shoulders, runs before the tuck, once per arrival in prone (a
@@ -66,6 +69,7 @@ class MoveConfig:
     rest_speed: float = 0.2
     max_settle: float = 3.0
     time_scale: float = 1.0
+    recheck_time: float = 0.5
     prone_lean: float = float("inf")
 
     def __post_init__(self) -> None:
@@ -75,7 +79,8 @@ class MoveConfig:
 RANGES: dict[str, Range] = {"range_factor": (0.0, False, 1.0),
                             "max_moves": (1, True, float("inf")), "settle_time": NON_NEGATIVE,
                             "rest_speed": POSITIVE, "max_settle": NON_NEGATIVE,
-                            "time_scale": POSITIVE, "prone_lean": NON_NEGATIVE}
+                            "time_scale": POSITIVE, "recheck_time": POSITIVE,
+                            "prone_lean": NON_NEGATIVE}
 """Field of :class:`MoveConfig` → its range."""
 INFINITE = ("prone_lean",)
 """Fields of :class:`MoveConfig` where inf means "never"."""
@@ -125,6 +130,7 @@ class GroundMoves:
         self.move: Move | None = None
         self.mirrored = False
         self._attempts: dict[str, int] = {}
+        self._recheck_at = np.inf
         self.q_ref = np.clip(data.qpos[self._qadr], self._lo, self._hi)
         self.state, self.status, self.phase = "", MOVING, 0
         self._settle_until = float(data.time) + self.config.settle_time
@@ -149,6 +155,7 @@ class GroundMoves:
             name = "to_front"  # flat on the chest first
         if name is None or self.moves_tried >= self.config.max_moves:
             self.status = STUCK
+            self._recheck_at = t + self.config.recheck_time if name is None else np.inf
             why = (f"no move from {self.state}" if name is None
                    else f"{self.moves_tried} moves tried")
             self.events.append(Event(t, "stuck", f"in {self.state}: {why}"))
@@ -174,6 +181,13 @@ class GroundMoves:
         if (self.status == MOVING and self.move is None
                 and data.time >= self._settle_until - 1e-9 and self._at_rest(model, data)):
             self._plan(model, data)
+        if (self.status == STUCK and data.time >= self._recheck_at - 1e-9
+                and base_speed(model, data) < self.config.rest_speed):
+            self._recheck_at = float(data.time) + self.config.recheck_time
+            state = classify(read_ground_pose(model, data))
+            if state != self.state and (state == self.config.goal or state in NEXT_MOVE):
+                self.status = MOVING
+                self._plan(model, data)
         if self.move is not None:
             phase = self.move.phases[self.phase]
             elapsed, scale = float(data.time) - self._t0, self.config.time_scale
