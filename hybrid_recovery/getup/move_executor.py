@@ -57,9 +57,9 @@ class MoveConfig:
             from ``other`` onto a side) the plan goes on.
         prone_lean: From prone with the torso rolled toward a side by more than this
             (|z| of its left axis, the sine of the roll) the ``to_front`` move, hands
-            under the shoulders, runs before the tuck, once per arrival in prone (a
-            torso half on its side makes the tuck end in prone again: ``docs/
-            experiments.md`` §15); inf: never.
+            under the shoulders, runs before the tuck, once per arrival in prone (from a
+            torso half on its side the tuck ends in prone again; docs/experiments.md
+            §15); inf: never.
     """
 
     goal: str = "knee_chest"
