@@ -98,7 +98,7 @@ def replay(state: dict, rise_time: float, time_scale: float | None = None,
         q, dq = data.qpos[qadr], data.qvel[dadr]
         if servo == "keyframe":
             q_ref = move.goal
-        elif servo == "inverse" and (q_ref is None or steps % servo_every == 0):
+        elif servo == "inverse" and steps % servo_every == 0:
             q_ref = q + (tau + KD * dq) / KP
         data.ctrl[:] = tau if servo == "qp" else pd_torque(np.clip(q_ref, lo, hi), q, dq)
         mujoco.mj_step(model, data)
