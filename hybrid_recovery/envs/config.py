@@ -85,6 +85,17 @@ class RewardConfig:
     feet_flat: float = 0.5
     """u_min: a foot counts fully when its sole normal is vertical, not at all once
     u_z ≤ u_min (60° tilt), linearly in between."""
+    w_track: float = 0.0
+    """Weight of r_track, the likeness to the recorded rise an episode started on
+    (beyond the paper, off by default; :mod:`~hybrid_recovery.envs.rise_starts`). Why:
+    the teacher imitates actions and has none on the model-based half's torque phases,
+    whose PD labels would teach a fall (docs/experiments.md §12); a reward on the states
+    asks for the rise itself through whatever actions reach it (cf. DeepMimic, Peng et
+    al. 2018)."""
+    sigma_track_joint: float = 0.3
+    """σ_q: RMS joint-angle error at which r_track's joint factor is e⁻¹ [rad]."""
+    sigma_track_height: float = 0.1
+    """σ_z: base-height error at which its height factor is e⁻¹ [m]."""
     w_alive: float = 1.0
     w_termination: float = -100.0
     """Early-termination penalty (timeouts excluded), × Δt like every term."""
