@@ -310,6 +310,35 @@ def test_r_track_compares_each_episode_with_the_continuation_of_its_recorded_sta
     assert not env._reward_state(np.zeros(env.num_envs, bool)).tracking.any()
 
 
+def first_stuck_steps(sitting_file, stuck_after_move: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Sitting starts from the ground end of a recorded move with a zero action: the step
+    stuck-low ends each one's first episode, and each start's remaining move samples."""
+    cfg = default_config()
+    cfg.num_envs, cfg.num_threads, cfg.seed = 6, 1, 4
+    cfg.curriculum.enabled = False
+    cfg.pose_weights = {"sitting": 1.0}
+    cfg.stuck_time = 0.1  # 5 control steps
+    cfg.rises = RiseConfig(files=(str(sitting_file),), levels=4, window=10_000,
+                           stuck_after_move=stuck_after_move)
+    env = RecoveryEnv(cfg)
+    env.rises.level["sitting"] = 3  # the stretch that begins at the ground pose
+    env._reset(np.arange(env.num_envs))
+    remaining = env.rises._last[env.rise_row] - env.rise_row
+    ended = np.zeros(env.num_envs, dtype=int)
+    for step in range(1, 25):
+        _, _, done, extras = env.step(torch.zeros(env.num_envs, env.num_actions))
+        ended[(ended == 0) & done.numpy()] = step
+    return ended, remaining
+
+
+def test_stuck_low_waits_for_the_end_of_a_starts_recorded_move(sitting_file):
+    plain, remaining = first_stuck_steps(sitting_file, False)
+    waited, same = first_stuck_steps(sitting_file, True)
+    np.testing.assert_array_equal(remaining, same)
+    assert (plain == 5).all() and (remaining > 5).all()  # the robot lies still: stuck
+    np.testing.assert_array_equal(waited, np.maximum(plain, remaining))
+
+
 def test_the_rise_levels_are_checkpointed_and_resumed(tmp_path, sitting_file):
     run = tmp_path / "run"
     overrides = {"curriculum.enabled": False, "pose_weights": {"sitting": 1.0},

@@ -309,6 +309,13 @@ class RiseConfig:
     """Stand-up rate over ``window`` below which the starts move one stretch back."""
     window: int = 128
     """Finished episodes from the current level per decision."""
+    stuck_after_move: bool = False
+    """Whether stuck-low (``stuck_time``) waits, on an episode started on a recorded move,
+    until the move's recorded continuation of its start has ended. Why: the model-based
+    rises hold the CoM within 2 cm for over 2 s on hands and knees and in the first foot's
+    swing, so the rule ends the recorded rise itself from 47–100 % of the starts of
+    sitting's and supine's stretches 6–15 (docs/experiments.md §12): the starts there ask
+    for a rise the episode would not let the recording finish."""
 
     def __post_init__(self) -> None:
         check_section(self, "rises.")

@@ -240,7 +240,8 @@ class RecoveryEnv(VecEnv):
         dones_by = {
             "torso_contact": h["torso_force"] > self.cfg.torso_force_limit,
             "stuck_low": self.stuck.update(h["height"], self.dt,
-                                           h["height"] < self.cfg.upright_height),
+                                           (h["height"] < self.cfg.upright_height)
+                                           & ~self._following_move()),
             "nan": failed,
         }
         terminated = np.logical_or.reduce(list(dones_by.values()))
@@ -356,6 +357,15 @@ class RecoveryEnv(VecEnv):
         return reward_state(self._state, self._sim["jnt_range"][:, 1:1 + self.num_actions],
                             self.action, self.last_action, self._to_sim(terminated),
                             self._reference())
+
+    def _following_move(self) -> np.ndarray:
+        """Episodes whose recorded start's move goes on at this step, exempt from stuck-low
+        (``rises.stuck_after_move``), (N,) bool; none when that is off."""
+        following = self.rise_row >= 0
+        if not (self.cfg.rises.stuck_after_move and following.any()):
+            return np.zeros(self.num_envs, dtype=bool)
+        return following & self.rises.moving(np.maximum(self.rise_row, 0),
+                                             self.episode_length_buf.numpy())
 
     def _reference(self) -> tuple[Any, Any, Any] | None:
         """r_track's inputs (:func:`reward_state`): the recorded continuation of each

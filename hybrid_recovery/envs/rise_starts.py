@@ -281,6 +281,11 @@ class RiseStarts:
         """
         return self._table[np.minimum(rows + steps, self._last[rows])]
 
+    def moving(self, rows: np.ndarray, steps: np.ndarray) -> np.ndarray:
+        """Whether the recorded move of starts ``rows`` (n,) goes on after ``steps`` (n,)
+        control steps (its sample r + i is not yet its last), (n,) bool."""
+        return rows + steps < self._last[rows]
+
     def rate(self, pose: str) -> float:
         """Stand-up rate of the episodes from ``pose``'s current level counted so far
         (since its last change), ∈ [0, 1]; 0 when none."""
