@@ -15,6 +15,7 @@ import pytest
 import torch
 
 from hybrid_recovery.dynamics import GRAVITY
+from hybrid_recovery.envs import default_config
 from hybrid_recovery.evaluation.trial import eval_model
 from hybrid_recovery.getup.to_squat import plan_keyframes
 from hybrid_recovery.robot.constants import DEFAULT_JOINT_POS
@@ -420,3 +421,35 @@ def test_to_squat_probe_servos_drive_the_same_move():
     outcomes = {servo: module.replay(state, 1.0, servo=servo) for servo in module.SERVOS}
     assert set(outcomes.values()) <= {"stood", "fell", "no_squat"}
     assert outcomes["qp"] != "no_squat" and outcomes["keyframe"] == "no_squat", outcomes
+
+
+def test_stuck_probe_ends_a_still_continuation_after_stuck_time_and_never_a_rising_one():
+    """The env's own stuck-low over recorded continuations: a 4 s move lying still is
+    ended 2 s after each start that has 2 s of move left; one rising 4 cm/s never."""
+    module = _script("probe_recorded_rises")
+    cfg = default_config()
+    rows = np.arange(200)
+    last = np.full(200, 199)
+    still = module.stuck_on_continuations(np.full(200, 0.3), last, cfg, 0.02)
+    np.testing.assert_allclose(still[:100], 2.0)
+    assert np.isnan(still[100:]).all()
+    rising = module.stuck_on_continuations(0.3 + 0.04 * rows * 0.02, last, cfg, 0.02)
+    assert np.isnan(rising).all()
+    # two moves: a continuation ends at its own move's end
+    two = module.stuck_on_continuations(np.full(200, 0.3), np.repeat([99, 199], 100), cfg, 0.02)
+    assert np.isnan(two).all()
+
+
+def test_recorded_rise_probe_measures_joints_beyond_the_scaled_ranges():
+    module = _script("probe_recorded_rises")
+    model = eval_model(None, 0.002, True, "default")
+    qpos = np.tile(model.qpos0, (3, 1))
+    knee = model.joint("left_knee_joint")
+    lo, hi = model.jnt_range[knee.id]
+    qpos[1, knee.qposadr[0]] = hi  # at the hardware limit: beyond 0.9 by (hi − lo) · 0.05
+    qpos[2, knee.qposadr[0]] = (lo + hi) / 2
+    excess = module.beyond_ranges(model, qpos, 0.9)
+    column = knee.id - 1
+    assert excess[1, column] == pytest.approx((hi - lo) * 0.05)
+    assert excess[2, column] == pytest.approx(-(hi - lo) * 0.45)
+    assert (module.beyond_ranges(model, qpos, 1.0)[1:, column] <= 1e-12).all()
