@@ -25,7 +25,6 @@ from hybrid_recovery.envs.rewards import (
     joint_limit,
     momentum_rate_sq,
     orientation_sq,
-    rise_tracking,
     rise_velocity,
     stability_band,
     support_contact,
@@ -36,8 +35,8 @@ from hybrid_recovery.envs.rewards import (
 H_STAR = 0.92
 DT = 0.02
 CFG = RewardConfig()
-ALL_ON = dataclasses.replace(CFG, w_feet=2.0, w_track=3.0)
-"""Every term of the table on (the defaults leave r_feet and r_track off)."""
+ALL_ON = dataclasses.replace(CFG, w_feet=2.0)
+"""Every term of the table on (the defaults leave r_feet off)."""
 
 
 def state(n: int = 1, **values) -> RewardState:
@@ -51,22 +50,12 @@ def state(n: int = 1, **values) -> RewardState:
         last_action=np.zeros((n, 27)), gravity_b=gravity, support_contacts=np.zeros(n),
         foot_force=np.full((n, 2), 500.0), foot_up=np.ones((n, 2)),
         weight=np.full(n, 1000.0),
-        terminated=np.zeros(n, dtype=bool), track_joint_sq=np.zeros(n),
-        track_height_sq=np.zeros(n), tracking=np.zeros(n, dtype=bool),
+        terminated=np.zeros(n, dtype=bool),
     )
     for key, value in values.items():
         base[key] = np.broadcast_to(np.asarray(value, dtype=base[key].dtype),
                                     base[key].shape).copy()
     return RewardState(**base)
-
-
-# ---------------------------------------------------------------- beyond the paper
-def test_rise_tracking_is_one_on_the_reference_e_minus_one_at_sigma_and_off_without_one():
-    sq, sz = CFG.sigma_track_joint ** 2, CFG.sigma_track_height ** 2
-    s = state(5, track_joint_sq=[0.0, sq, 0.0, sq, 0.0], track_height_sq=[0.0, 0.0, sz, sz, 0.0],
-              tracking=[True, True, True, True, False])
-    np.testing.assert_allclose(rise_tracking(s, CFG, H_STAR),
-                               [1.0, np.exp(-1.0), np.exp(-1.0), np.exp(-2.0), 0.0])
 
 
 # ---------------------------------------------------------------- Group I
@@ -218,9 +207,7 @@ def test_value_times_weight_times_dt():
               net_force=rng.normal(0, 300, (6, 3)), net_torque=rng.normal(0, 30, (6, 3)),
               torque=rng.normal(0, 30, (6, 27)), action=rng.normal(size=(6, 27)),
               support_contacts=[0, 1, 2, 3, 0, 1], terminated=[0, 1, 0, 0, 1, 0],
-              foot_force=rng.uniform(0, 800, (6, 2)), foot_up=rng.uniform(-1, 1, (6, 2)),
-              track_joint_sq=rng.uniform(0, 0.2, 6), track_height_sq=rng.uniform(0, 0.02, 6),
-              tracking=[1, 1, 0, 1, 0, 1])
+              foot_force=rng.uniform(0, 800, (6, 2)), foot_up=rng.uniform(-1, 1, (6, 2)))
     total, parts = compute_rewards(s, ALL_ON, H_STAR, DT)
     assert set(parts) == {name for name, _, _ in REWARD_TERMS}
     for name, weight_field, fn in REWARD_TERMS:
@@ -241,8 +228,7 @@ def test_a_still_upright_robot_earns_a_known_reward_per_second():
 def test_weight_zero_disables_a_term(name, weight_field):
     cfg = dataclasses.replace(ALL_ON, **{weight_field: 0.0})
     s = state(2, height=[0.3, 0.9], height_vel=[-1.0, 0.4], terminated=[True, False],
-              cp_distance=[0.2, -0.1], support_contacts=[2, 0], tracking=[True, False],
-              track_joint_sq=[0.05, 0.0])
+              cp_distance=[0.2, -0.1], support_contacts=[2, 0])
     total, parts = compute_rewards(s, cfg, H_STAR, DT)
     full_total, full_parts = compute_rewards(s, ALL_ON, H_STAR, DT)
     assert name not in parts

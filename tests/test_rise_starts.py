@@ -79,8 +79,7 @@ def test_starts_drawn_at_a_level_are_the_recorded_states_of_its_stretch(tmp_path
     rng = np.random.default_rng(0)
     for level in range(8):
         rises.level["sitting"] = level
-        q, v, rows = rises.draw("sitting", 200, rng)
-        np.testing.assert_array_equal(rises.reference(rows, np.zeros(200, int)), q)
+        q, v = rises.draw("sitting", 200, rng)
         first = 2 + 2 * (7 - level)  # the stretch's two samples in each episode
         expected = {e * 100 + first + j for e in (0, 1) for j in (0, 1)}
         assert set(q[:, 0].tolist()) == expected
@@ -92,26 +91,13 @@ def test_starts_drawn_at_a_level_are_the_recorded_states_of_its_stretch(tmp_path
     assert not rises.active("sitting")  # level K: the pose's own settled starts
 
 
-def test_a_starts_reference_is_its_moves_continuation_then_its_last_sample(tmp_path):
-    """Two files of two episodes each: sample r + i of the same move, held at its end."""
+def test_each_move_sample_knows_how_many_follow_it_on_its_move(tmp_path):
+    """Two files of two episodes each, 16-sample moves: 15 … 0 in each."""
     qpos, qvel = numbered()
-    other = qpos.copy()
-    other[:, 0] += 1000
-    files = (str(write_recording(tmp_path / "a.npz", qpos, qvel)),
-             str(write_recording(tmp_path / "b.npz", other, qvel)))
-    rises = RiseStarts(RiseConfig(files=files), NQ, NV)
-    moves = rises.moves["sitting"]
-    assert moves.remaining.tolist() == list(range(15, -1, -1)) * 4  # 16-sample moves
-    rng = np.random.default_rng(1)
-    for level in range(8):
-        rises.level["sitting"] = level
-        _, _, rows = rises.draw("sitting", 50, rng)
-        for steps in (0, 1, 3, 40):
-            x = rises.reference(rows, np.full(50, steps))[:, 0]
-            start = moves.qpos[rows, 0]
-            sample = start % 100  # index within its recorded episode (2..17 on the move)
-            expected = start - sample + np.minimum(sample + steps, 17)
-            np.testing.assert_array_equal(x, expected)
+    files = tuple(str(write_recording(tmp_path / f"{name}.npz", qpos, qvel)) for name in "ab")
+    moves = RiseStarts(RiseConfig(files=files), NQ, NV).moves["sitting"]
+    assert moves.remaining.tolist() == list(range(15, -1, -1)) * 4
+    np.testing.assert_array_equal(moves.qpos[moves.remaining == 15, 0], [2, 102, 2, 102])
 
 
 def test_the_level_advances_and_retreats_on_the_stand_up_rate_of_its_own_starts(tmp_path):
@@ -275,68 +261,6 @@ def test_an_env_resets_from_recorded_states_and_steps_without_nan(sitting_file):
     assert env.rises.state_dict()["outcomes"]["sitting"] == [True] * int(sit.sum())
     assert log["rise_level/sitting"] == 2.0 and "bridge_blend/sitting" not in log
     assert log["rise_rate/sitting"] == 1.0
-
-
-def test_r_track_compares_each_episode_with_the_continuation_of_its_recorded_start(
-        sitting_file):
-    cfg = default_config()
-    cfg.num_envs, cfg.num_threads, cfg.seed = 8, 1, 3
-    cfg.curriculum.enabled = False
-    cfg.pose_weights = {"sitting": 1.0, "squatting": 1.0}
-    cfg.rises = RiseConfig(files=(str(sitting_file),), levels=4, window=10_000)
-    cfg.rewards.w_track = 3.0
-    env = RecoveryEnv(cfg)
-    env.rises.level["sitting"] = 1
-    env._reset(np.arange(env.num_envs))
-    sit = env.start_pose == POSES.index("sitting")
-    assert sit.any() and (~sit).any() and ((env.rise_row >= 0) == sit).all()
-    with np.load(sitting_file) as rec:
-        recorded = rec["qpos"]
-    # each sitting start's own row of the file (its joints are unique to it)
-    starts = {i: int(np.flatnonzero((recorded[:, 7:] == env.qpos[i, 7:]).all(1))[0])
-              for i in np.flatnonzero(sit)}
-    for steps in range(1, 40):
-        env.step(torch.zeros(env.num_envs, env.num_actions))
-        s = env._reward_state(np.zeros(env.num_envs, bool))
-        assert not s.tracking[~sit].any() and (s.track_joint_sq[~sit] == 0).all()
-        for i, row in starts.items():
-            episode_start = row - row % len(PHASES)
-            ref = recorded[episode_start + min(row % len(PHASES) + steps, 17)]
-            assert s.tracking[i]
-            assert s.track_joint_sq[i] == pytest.approx(np.mean((env.qpos[i, 7:] - ref[7:]) ** 2))
-            assert s.track_height_sq[i] == pytest.approx((env.qpos[i, 2] - ref[2]) ** 2)
-    assert env.nan_resets == 0 and (env.episode_length_buf.numpy() == 39).all()
-    cfg.rewards.w_track = 0.0  # off: no reference read
-    assert not env._reward_state(np.zeros(env.num_envs, bool)).tracking.any()
-
-
-def first_stuck_steps(sitting_file, stuck_after_move: bool) -> tuple[np.ndarray, np.ndarray]:
-    """Sitting starts from the ground end of a recorded move with a zero action: the step
-    stuck-low ends each one's first episode, and each start's remaining move samples."""
-    cfg = default_config()
-    cfg.num_envs, cfg.num_threads, cfg.seed = 6, 1, 4
-    cfg.curriculum.enabled = False
-    cfg.pose_weights = {"sitting": 1.0}
-    cfg.stuck_time = 0.1  # 5 control steps
-    cfg.rises = RiseConfig(files=(str(sitting_file),), levels=4, window=10_000,
-                           stuck_after_move=stuck_after_move)
-    env = RecoveryEnv(cfg)
-    env.rises.level["sitting"] = 3  # the stretch that begins at the ground pose
-    env._reset(np.arange(env.num_envs))
-    remaining = env.rises._last[env.rise_row] - env.rise_row
-    ended = np.zeros(env.num_envs, dtype=int)
-    for step in range(1, 25):
-        _, _, done, extras = env.step(torch.zeros(env.num_envs, env.num_actions))
-        ended[(ended == 0) & done.numpy()] = step
-    return ended, remaining
-
-
-def test_stuck_low_waits_for_the_end_of_a_starts_recorded_move(sitting_file):
-    plain, remaining = first_stuck_steps(sitting_file, False)
-    waited, same = first_stuck_steps(sitting_file, True)
-    np.testing.assert_array_equal(remaining, same)
-    assert (plain == 5).all() and (remaining > 5).all()  # the robot lies still: stuck
-    np.testing.assert_array_equal(waited, np.maximum(plain, remaining))
 
 
 def test_the_rise_levels_are_checkpointed_and_resumed(tmp_path, sitting_file):

@@ -85,17 +85,6 @@ class RewardConfig:
     feet_flat: float = 0.5
     """u_min: a foot counts fully when its sole normal is vertical, not at all once
     u_z ≤ u_min (60° tilt), linearly in between."""
-    w_track: float = 0.0
-    """Weight of r_track, the likeness to the recorded rise an episode started on
-    (beyond the paper, off by default; :mod:`~hybrid_recovery.envs.rise_starts`). Why:
-    the teacher imitates actions and has none on the model-based half's torque phases,
-    whose PD labels would teach a fall (docs/experiments.md §12); a reward on the states
-    asks for the rise itself through whatever actions reach it (cf. DeepMimic, Peng et
-    al. 2018)."""
-    sigma_track_joint: float = 0.3
-    """σ_q: RMS joint-angle error at which r_track's joint factor is e⁻¹ [rad]."""
-    sigma_track_height: float = 0.1
-    """σ_z: base-height error at which its height factor is e⁻¹ [m]."""
     w_alive: float = 1.0
     w_termination: float = -100.0
     """Early-termination penalty (timeouts excluded), × Δt like every term."""
@@ -309,13 +298,6 @@ class RiseConfig:
     """Stand-up rate over ``window`` below which the starts move one stretch back."""
     window: int = 128
     """Finished episodes from the current level per decision."""
-    stuck_after_move: bool = False
-    """Whether stuck-low (``stuck_time``) waits, on an episode started on a recorded move,
-    until the move's recorded continuation of its start has ended. Why: the model-based
-    rises hold the CoM within 2 cm for over 2 s on hands and knees and in the first foot's
-    swing, so the rule ends the recorded rise itself from 47–100 % of the starts of
-    sitting's and supine's stretches 6–15 (docs/experiments.md §12): the starts there ask
-    for a rise the episode would not let the recording finish."""
 
     def __post_init__(self) -> None:
         check_section(self, "rises.")

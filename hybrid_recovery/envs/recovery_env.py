@@ -164,9 +164,6 @@ class RecoveryEnv(VecEnv):
         self.start_level = np.full(n, -1)
         """Bridge or rise level of each episode's start (−1: the pose's own settled
         start), (N,) int."""
-        self.rise_row = np.full(n, -1)
-        """Each episode's recorded start (:meth:`RiseStarts.draw`'s row; −1: none), whose
-        continuation is r_track's reference, (N,) int."""
         self._start_counted = np.zeros(n, dtype=bool)
         self._window_counted = np.zeros(n, dtype=bool)
         """Episodes whose outcome the bridges and rises / the curriculum and assistance
@@ -240,8 +237,7 @@ class RecoveryEnv(VecEnv):
         dones_by = {
             "torso_contact": h["torso_force"] > self.cfg.torso_force_limit,
             "stuck_low": self.stuck.update(h["height"], self.dt,
-                                           (h["height"] < self.cfg.upright_height)
-                                           & ~self._following_move()),
+                                           h["height"] < self.cfg.upright_height),
             "nan": failed,
         }
         terminated = np.logical_or.reduce(list(dones_by.values()))
@@ -355,29 +351,7 @@ class RecoveryEnv(VecEnv):
     def _reward_state(self, terminated: np.ndarray) -> RewardState[Any]:
         """The reward terms' inputs; ``terminated`` (N,) bool on the host."""
         return reward_state(self._state, self._sim["jnt_range"][:, 1:1 + self.num_actions],
-                            self.action, self.last_action, self._to_sim(terminated),
-                            self._reference())
-
-    def _following_move(self) -> np.ndarray:
-        """Episodes whose recorded start's move goes on at this step, exempt from stuck-low
-        (``rises.stuck_after_move``), (N,) bool; none when that is off."""
-        following = self.rise_row >= 0
-        if not (self.cfg.rises.stuck_after_move and following.any()):
-            return np.zeros(self.num_envs, dtype=bool)
-        return following & self.rises.moving(np.maximum(self.rise_row, 0),
-                                             self.episode_length_buf.numpy())
-
-    def _reference(self) -> tuple[Any, Any, Any] | None:
-        """r_track's inputs (:func:`reward_state`): the recorded continuation of each
-        episode's start after its steps so far; None when r_track is off or no episode
-        started on a recording."""
-        tracking = self.rise_row >= 0
-        if self.cfg.rewards.w_track == 0.0 or not tracking.any():
-            return None
-        steps = self.episode_length_buf.numpy()
-        ref = self.rises.reference(np.maximum(self.rise_row, 0), steps)  # any row elsewhere
-        z_error = self._sim["qpos"][:, 2] - self._to_sim(ref[:, 2])
-        return (self._to_sim(ref[:, self.qadr]), z_error, self._to_sim(tracking))
+                            self.action, self.last_action, self._to_sim(terminated))
 
     def _observations(self) -> TensorDict:
         xp, s = self._xp, self._state
@@ -451,7 +425,7 @@ class RecoveryEnv(VecEnv):
         poses = self._sample_poses(n)
         qpos = np.empty((n, self.model.nq))
         qvel = np.zeros((n, self.model.nv))
-        levels, rise_rows = np.full(n, -1), np.full(n, -1)
+        levels = np.full(n, -1)
         recorded = np.zeros(n, dtype=bool)
         for k, name in enumerate(POSES):
             rows = np.flatnonzero(poses == k)
@@ -459,7 +433,7 @@ class RecoveryEnv(VecEnv):
                 continue
             if self.rises.active(name):
                 levels[rows], recorded[rows] = self.rises.level[name], True
-                qpos[rows], qvel[rows], rise_rows[rows] = self.rises.draw(name, len(rows), rng)
+                qpos[rows], qvel[rows] = self.rises.draw(name, len(rows), rng)
                 continue
             if not self.bridge.active(name):
                 pool = self.pool[name][0]
@@ -476,7 +450,6 @@ class RecoveryEnv(VecEnv):
         qpos[recorded], qvel[recorded] = turned(qpos[recorded], qvel[recorded],
                                                 rng.uniform(-np.pi, np.pi, recorded.sum()))
         self.start_pose[ids], self.start_level[ids] = poses, levels
-        self.rise_row[ids] = rise_rows
         self.randomizer.set_limits(ids, self.curriculum.torque_scale,
                                    self.curriculum.position_limit_factor)
         if self.motors is not None:

@@ -40,11 +40,6 @@ class RewardState(Generic[Array]):
         foot_up: z component of each foot's sole normal, u_z ∈ [−1, 1], (N, 2).
         weight: m g of each env's robot, (N,) [N].
         terminated: early termination (not timeout), (N,) bool.
-        track_joint_sq: mean squared joint error to the recorded rise's reference,
-            (1/27) ‖q − q̂‖², (N,) [rad²] (0 where there is none).
-        track_height_sq: (z − ẑ)² of the base, (N,) [m²].
-        tracking: whether the episode started on a recorded rise (has a reference), (N,)
-            bool.
     """
 
     height: Array
@@ -63,9 +58,6 @@ class RewardState(Generic[Array]):
     foot_up: Array
     weight: Array
     terminated: Array
-    track_joint_sq: Array
-    track_height_sq: Array
-    tracking: Array
 
 
 # ---------------------------------------------------------------- Group I: vertical recovery
@@ -156,15 +148,6 @@ def feet_load(s: RewardState[Array], c: RewardConfig, h_star: float) -> Array:
     return xp.minimum(xp.sum(s.foot_force * flat, axis=-1) / s.weight, 1.0)
 
 
-def rise_tracking(s: RewardState[Array], c: RewardConfig, h_star: float) -> Array:
-    """r_track = exp(−(1/27)‖q − q̂‖² / σ_q² − (z − ẑ)² / σ_z²) ∈ (0, 1] on episodes
-    started on a recorded rise, q̂, ẑ its recorded continuation; 0 on the others."""
-    xp = array_namespace(s.height)
-    exponent = s.track_joint_sq / c.sigma_track_joint**2 \
-        + s.track_height_sq / c.sigma_track_height**2
-    return xp.exp(-exponent) * s.tracking
-
-
 def alive(s: RewardState[Array], c: RewardConfig, h_star: float) -> Array:
     """1 per step survived."""
     xp = array_namespace(s.height)
@@ -194,7 +177,6 @@ REWARD_TERMS: tuple[tuple[str, str, Term], ...] = (
     ("orient", "w_orient", orientation_sq),
     ("contact", "w_contact", support_contact),
     ("feet", "w_feet", feet_load),
-    ("track", "w_track", rise_tracking),
     ("alive", "w_alive", alive),
     ("termination", "w_termination", termination),
 )

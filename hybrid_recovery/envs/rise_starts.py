@@ -11,10 +11,7 @@ hand-over, and belongs to stretch k = K − 1 − ⌊u K⌋ of K, the one of u �
 (K − k)/K): stretch 0 ends at the hand-over, stretch K − 1 begins at the ground pose.
 
 A pose's starts are drawn from the stretch of its level k ∈ {0, …, K}; at K the pose's
-own settled starts are used (the curriculum is done). An episode started at sample r of a
-move has the move's continuation as its reference: sample r + i after i control steps
-(recorded at the control rate), its last one once the move has ended
-(:meth:`RiseStarts.reference`, read by the tracking reward r_track). The level moves on the stand-up
+own settled starts are used (the curriculum is done). The level moves on the stand-up
 rate of the episodes started at it (:class:`~hybrid_recovery.envs.outcome_window.
 OutcomeWindow`): one stretch toward the ground pose at ``advance``, one back below
 ``retreat`` (cf. reverse curricula from the goal, and the stage advance by success rate
@@ -236,16 +233,6 @@ class RiseStarts:
                                         for f in ("qpos", "qvel", "stretch", "remaining")))
                       for pose, parts in found.items()}
         """Moves of every recorded pose, all its files together."""
-        self._offset = dict(zip(self.moves, np.cumsum(
-            [0, *(len(m.stretch) for m in self.moves.values())]).tolist(), strict=False))
-        self._table = np.concatenate([m.qpos for m in self.moves.values()]) \
-            if self.moves else np.zeros((0, nq))
-        """Every pose's move samples in one (M_all, nq) table; a pose's rows begin at its
-        offset."""
-        self._last = np.concatenate([np.arange(len(m.remaining)) + self._offset[p]
-                                     + m.remaining for p, m in self.moves.items()]) \
-            if self.moves else np.zeros(0, dtype=int)
-        """Each table row's move's last row, (M_all,) int."""
         self.level = dict.fromkeys(self.moves, 0)
         self._outcomes = {pose: OutcomeWindow(cfg.window) for pose in self.moves}
 
@@ -259,32 +246,16 @@ class RiseStarts:
         return pose in self.level and self.level[pose] < self.cfg.levels
 
     def draw(self, pose: str, count: int, rng: np.random.Generator
-             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+             ) -> tuple[np.ndarray, np.ndarray]:
         """``count`` recorded states of ``pose``'s current stretch, uniformly.
 
         Returns:
-            (qpos (count, nq), qvel (count, nv), copies of recorded samples; their rows
-            (count,) int for :meth:`reference`).
+            (qpos (count, nq), qvel (count, nv)), copies of recorded samples.
         """
         moves = self.moves[pose]
         rows = np.flatnonzero(moves.stretch == self.level[pose])
         pick = rows[rng.integers(len(rows), size=count)]
-        return moves.qpos[pick].copy(), moves.qvel[pick].copy(), pick + self._offset[pose]
-
-    def reference(self, rows: np.ndarray, steps: np.ndarray) -> np.ndarray:
-        """The recorded continuation of starts ``rows`` (n,) (from :meth:`draw`) after
-        ``steps`` (n,) control steps: the move's sample r + i, its last after its end.
-
-        Returns:
-            qpos (n, nq), as recorded (not turned: the joints and the base's height are
-            what a yaw leaves alike).
-        """
-        return self._table[np.minimum(rows + steps, self._last[rows])]
-
-    def moving(self, rows: np.ndarray, steps: np.ndarray) -> np.ndarray:
-        """Whether the recorded move of starts ``rows`` (n,) goes on after ``steps`` (n,)
-        control steps (its sample r + i is not yet its last), (n,) bool."""
-        return rows + steps < self._last[rows]
+        return moves.qpos[pick].copy(), moves.qvel[pick].copy()
 
     def rate(self, pose: str) -> float:
         """Stand-up rate of the episodes from ``pose``'s current level counted so far

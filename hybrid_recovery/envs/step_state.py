@@ -112,8 +112,7 @@ def read_step_state(sensordata: Array, xmat: Array, qpos: Array, qvel: Array,
 
 
 def reward_state(s: Mapping[str, Array], joint_range: Array, action: Array,
-                 last_action: Array, terminated: Array,
-                 reference: tuple[Array, Array, Array] | None = None) -> RewardState[Array]:
+                 last_action: Array, terminated: Array) -> RewardState[Array]:
     """The reward terms' inputs (:class:`~hybrid_recovery.envs.rewards.RewardState`).
 
     Args:
@@ -121,18 +120,8 @@ def reward_state(s: Mapping[str, Array], joint_range: Array, action: Array,
         joint_range: this episode's joint ranges (N, 27, 2) [rad].
         action: a_t and last_action: a_{t−1}, (N, 27).
         terminated: early terminations of this step (N,) bool.
-        reference: the recorded rises' references (q̂ (N, 27) [rad], the base's height
-            error z − ẑ (N,) [m], whether there is one (N,) bool), or None: no episode
-            has one.
     """
     xp = array_namespace(s["q"], joint_range)
-    if reference is None:
-        track_joint_sq = track_height_sq = xp.zeros_like(s["height"])
-        tracking = xp.zeros_like(terminated)
-    else:
-        q_ref, height_error, tracking = reference
-        track_joint_sq = xp.where(tracking, xp.mean(xp.square(s["q"] - q_ref), axis=1), 0.0)
-        track_height_sq = xp.where(tracking, xp.square(height_error), 0.0)
     lo, hi = joint_range[..., 0], joint_range[..., 1]
     mid, half = (lo + hi) / 2, (hi - lo) / 2 * SOFT_LIMIT
     excess = xp.sum(xp.maximum(xp.abs(s["q"] - mid) - half, 0.0), axis=1)
@@ -142,8 +131,7 @@ def reward_state(s: Mapping[str, Array], joint_range: Array, action: Array,
         torque=s["torque"], limit_violation=excess, action=action, last_action=last_action,
         gravity_b=s["gravity_b"], support_contacts=s["support_contacts"],
         foot_force=s["foot_force"], foot_up=s["foot_up"], weight=s["mass"] * GRAVITY,
-        terminated=terminated, track_joint_sq=track_joint_sq,
-        track_height_sq=track_height_sq, tracking=tracking,
+        terminated=terminated,
     )
 
 
