@@ -79,18 +79,22 @@ def hand_over_state(pose: str, seed: int) -> dict | None:
 
 
 def replay(state: dict, rise_time: float, time_scale: float | None = None,
-           servo: str = "qp", servo_every: int = 10) -> str:
+           servo: str = "qp", servo_every: int = 10, range_factor: float = 1.0) -> str:
     """``"stood"``, ``"fell"`` (the rise accepted the squat, the CoM ended at or below
     0.85 m) or ``"no_squat"`` from one kept state; the move at ``time_scale`` (None: the
-    controller's pace kept with the state), its joints driven by ``servo`` (:data:`SERVOS`)."""
+    controller's pace kept with the state), its joints driven by ``servo`` (:data:`SERVOS`),
+    the robot's joint ranges scaled about their middle by ``range_factor`` (0.9: the
+    training robot's at the curriculum's end; a state beyond them is clipped in)."""
     model = eval_model(None, CONTROL_DT, True, "default")
     data = mujoco.MjData(model)
     data.qpos[:], data.qvel[:], data.time = state["qpos"], state["qvel"], state["time"]
+    if range_factor != 1.0:
+        scale_ranges(model, data, range_factor)
+    qadr, dadr = joint_addresses(model)
     mujoco.mj_forward(model, data)
     pace = float(state["time_scale"]) if time_scale is None else time_scale
     move = ToSquat(ToSquatConfig(time_scale=pace))
     move.reset(model, data)
-    qadr, dadr = joint_addresses(model)
     lo, hi = SafetyLimits.from_model(model).q_ref_bounds(TARGET_RANGE_FACTOR)
     balance, steps, done_at, q_ref = BalanceController(), 0, None, None
     while True:
@@ -115,6 +119,17 @@ def replay(state: dict, rise_time: float, time_scale: float | None = None,
         data.ctrl[:] = balance(model, data)
         mujoco.mj_step(model, data)
     return "stood" if com_height(model, data) > 0.85 else "fell"
+
+
+def scale_ranges(model: mujoco.MjModel, data: mujoco.MjData, factor: float) -> None:
+    """The hinge joints' ranges of ``model`` × ``factor`` about their middle, and ``data``'s
+    joint positions clipped into them (in place; the free joint untouched)."""
+    hinge = np.flatnonzero(model.jnt_type == mujoco.mjtJoint.mjJNT_HINGE)
+    lo, hi = model.jnt_range[hinge].T
+    mid, half = (lo + hi) / 2, (hi - lo) / 2 * factor
+    model.jnt_range[hinge] = np.stack([mid - half, mid + half], axis=1)
+    adr = model.jnt_qposadr[hinge]
+    data.qpos[adr] = np.clip(data.qpos[adr], mid - half, mid + half)
 
 
 def _starmap(fn, jobs: list[tuple], workers: int) -> list:
@@ -145,13 +160,14 @@ def _states(path: Path, poses: list[str], seeds: range, workers: int) -> dict[st
 
 def probe(poses: list[str], seeds: range, states_path: Path, rise_time: float = 5.0,
           workers: int = 2, time_scale: float | None = None, servo: str = "qp",
-          servo_every: int = 10) -> dict[str, dict]:
+          servo_every: int = 10, range_factor: float = 1.0) -> dict[str, dict]:
     """{pose: {starts, squats, stood, squat_interval, stood_interval}} over the kept states."""
     if servo not in SERVOS:
         raise ValueError(f"unknown servo '{servo}': one of {list(SERVOS)}")
     states = _states(states_path, poses, seeds, workers)
     keys = sorted(states)
-    jobs = [(states[k], rise_time, time_scale, servo, servo_every) for k in keys]
+    jobs = [(states[k], rise_time, time_scale, servo, servo_every, range_factor)
+            for k in keys]
     outcomes = dict(zip(keys, _starmap(replay, jobs, workers), strict=True))
     out = {}
     for pose in poses:
@@ -176,11 +192,14 @@ def main() -> None:
                         help="what drives the joints during the move (module docstring)")
     parser.add_argument("--servo-every", type=int, default=10,
                         help="physics steps an inverse servo's target is held (10: 50 Hz)")
+    parser.add_argument("--range-factor", type=float, default=1.0,
+                        help="the robot's joint ranges × this about their middle (0.9: "
+                             "the training robot's)")
     parser.add_argument("--workers", type=int, default=2)
     args = parser.parse_args()
     first, end = (int(x) for x in args.seeds.split(":"))
     out = probe(args.poses, range(first, end), args.states, args.rise, args.workers,
-                args.time_scale, args.servo, args.servo_every)
+                args.time_scale, args.servo, args.servo_every, args.range_factor)
     print(f"{'pose':10s} {'starts':>6s} {'squat accepted':>24s} {'stood':>24s}")
     for pose, row in out.items():
         sq, st = row["squat_interval"], row["stood_interval"]

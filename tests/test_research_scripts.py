@@ -453,3 +453,20 @@ def test_recorded_rise_probe_measures_joints_beyond_the_scaled_ranges():
     assert excess[1, column] == pytest.approx((hi - lo) * 0.05)
     assert excess[2, column] == pytest.approx(-(hi - lo) * 0.45)
     assert (module.beyond_ranges(model, qpos, 1.0)[1:, column] <= 1e-12).all()
+
+
+def test_to_squat_probe_scales_the_joint_ranges_and_clips_the_state_into_them():
+    import mujoco
+
+    module = _script("probe_to_squat")
+    model = eval_model(None, 0.002, True, "default")
+    data = mujoco.MjData(model)
+    knee = model.joint("left_knee_joint")
+    lo, hi = model.jnt_range[knee.id].copy()
+    data.qpos[knee.qposadr[0]] = hi
+    base = data.qpos[:7].copy()
+    module.scale_ranges(model, data, 0.9)
+    margin = (hi - lo) * 0.05
+    np.testing.assert_allclose(model.jnt_range[knee.id], [lo + margin, hi - margin])
+    assert data.qpos[knee.qposadr[0]] == pytest.approx(hi - margin)
+    np.testing.assert_array_equal(data.qpos[:7], base)  # the free joint is not a hinge
