@@ -386,10 +386,10 @@ def test_to_squat_probe_keeps_the_hand_over_states_and_counts_per_pose(tmp_path,
         return {"qpos": np.full(3, seed), "qvel": np.zeros(2), "time": 6.0, "time_scale": 0.85}
 
     outcome = {0: "stood", 1: "fell", 3: "no_squat", 4: "stood"}
-    servos: set[tuple[str, int]] = set()
+    servos: set[tuple[str, int, float]] = set()
 
-    def replay(s, rise, time_scale=None, servo="qp", servo_every=10):
-        servos.add((servo, servo_every))
+    def replay(s, rise, time_scale=None, servo="qp", servo_every=10, range_factor=1.0):
+        servos.add((servo, servo_every, range_factor))
         return outcome[int(s["qpos"][0])]
 
     monkeypatch.setattr(module, "hand_over_state", state)
@@ -403,9 +403,10 @@ def test_to_squat_probe_keeps_the_hand_over_states_and_counts_per_pose(tmp_path,
     asked.clear()
     again = module.probe(["kneeling"], range(5), path, workers=1)
     assert asked == [("kneeling", 4)] and again["kneeling"]["starts"] == 4
-    assert servos == {("qp", 10)}
+    assert servos == {("qp", 10, 1.0)}
     module.probe(["kneeling"], range(5), path, workers=1, servo="inverse", servo_every=1)
-    assert servos == {("qp", 10), ("inverse", 1)}
+    module.probe(["kneeling"], range(5), path, workers=1, range_factor=0.9)
+    assert servos == {("qp", 10, 1.0), ("inverse", 1, 1.0), ("qp", 10, 0.9)}
     with pytest.raises(ValueError, match="unknown servo 'torque': one of"):
         module.probe(["kneeling"], range(5), path, workers=1, servo="torque")
 
