@@ -29,7 +29,10 @@ from hybrid_recovery.envs import default_config
 from hybrid_recovery.envs.config import EnvConfig, RiseConfig
 from hybrid_recovery.envs.rise_starts import RiseStarts
 from hybrid_recovery.envs.terminations import StuckLow
-from hybrid_recovery.robot.constants import NUM_JOINTS
+from hybrid_recovery.getup.relapse import com_height
+from hybrid_recovery.robot.constants import JOINT_NAMES
+from hybrid_recovery.robot.limits import SafetyLimits
+from hybrid_recovery.robot.mjcf import joint_addresses
 from hybrid_recovery.sim.scene import build_scene
 
 
@@ -41,7 +44,7 @@ def com_heights(model: mujoco.MjModel, qpos: np.ndarray) -> np.ndarray:
         data.qpos[:] = q
         mujoco.mj_kinematics(model, data)
         mujoco.mj_comPos(model, data)
-        heights[i] = data.subtree_com[1, 2]
+        heights[i] = com_height(model, data)
     return heights
 
 
@@ -69,12 +72,11 @@ def stuck_on_continuations(heights: np.ndarray, last: np.ndarray, cfg: EnvConfig
 
 
 def beyond_ranges(model: mujoco.MjModel, qpos: np.ndarray, factor: float) -> np.ndarray:
-    """How far each state's (M, nq) actuated joints lie beyond the model's ranges scaled
-    about their middle by ``factor``, (M, 27) [rad] (≤ 0: within)."""
-    lo, hi = model.jnt_range[1:1 + NUM_JOINTS].T
-    mid, half = (lo + hi) / 2, (hi - lo) / 2 * factor
-    q = qpos[:, model.jnt_qposadr[1:1 + NUM_JOINTS]]
-    return np.abs(q - mid) - half
+    """How far each state's (M, nq) actuated joints (motor order) lie beyond the model's
+    ranges scaled about their middle by ``factor``, (M, 27) [rad] (≤ 0: within)."""
+    lo, hi = SafetyLimits.from_model(model).q_ref_bounds(factor)
+    q = qpos[:, joint_addresses(model)[0]]
+    return np.maximum(lo - q, q - hi)
 
 
 def probe(path: Path, levels: int, cfg: EnvConfig | None = None) -> dict:
@@ -92,7 +94,7 @@ def probe(path: Path, levels: int, cfg: EnvConfig | None = None) -> dict:
                                    np.arange(len(moves.remaining)) + moves.remaining, cfg, dt)
     factor = cfg.curriculum.position_limit_final
     excess = beyond_ranges(model, moves.qpos, factor)
-    names = [model.joint(j).name for j in range(1, 1 + NUM_JOINTS)]
+    names = JOINT_NAMES
     table = {}
     for k in range(levels - 1, -1, -1):
         here = moves.stretch == k

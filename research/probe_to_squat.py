@@ -43,7 +43,7 @@ from hybrid_recovery.evaluation.trial import eval_model, run_trial
 from hybrid_recovery.getup.relapse import com_height
 from hybrid_recovery.getup.to_squat import ToSquat, ToSquatConfig
 from hybrid_recovery.robot.action import TARGET_RANGE_FACTOR
-from hybrid_recovery.robot.constants import KD, KP
+from hybrid_recovery.robot.constants import JOINT_NAMES, KD, KP
 from hybrid_recovery.robot.limits import SafetyLimits
 from hybrid_recovery.robot.mjcf import joint_addresses
 
@@ -122,14 +122,13 @@ def replay(state: dict, rise_time: float, time_scale: float | None = None,
 
 
 def scale_ranges(model: mujoco.MjModel, data: mujoco.MjData, factor: float) -> None:
-    """The hinge joints' ranges of ``model`` × ``factor`` about their middle, and ``data``'s
-    joint positions clipped into them (in place; the free joint untouched)."""
-    hinge = np.flatnonzero(model.jnt_type == mujoco.mjtJoint.mjJNT_HINGE)
-    lo, hi = model.jnt_range[hinge].T
-    mid, half = (lo + hi) / 2, (hi - lo) / 2 * factor
-    model.jnt_range[hinge] = np.stack([mid - half, mid + half], axis=1)
-    adr = model.jnt_qposadr[hinge]
-    data.qpos[adr] = np.clip(data.qpos[adr], mid - half, mid + half)
+    """The actuated joints' ranges of ``model`` × ``factor`` about their middle, and
+    ``data``'s joint positions clipped into them (in place; the free joint untouched)."""
+    lo, hi = SafetyLimits.from_model(model).q_ref_bounds(factor)
+    ids = [model.joint(name).id for name in JOINT_NAMES]
+    model.jnt_range[ids] = np.stack([lo, hi], axis=1)
+    qadr = joint_addresses(model)[0]
+    data.qpos[qadr] = np.clip(data.qpos[qadr], lo, hi)
 
 
 def _starmap(fn, jobs: list[tuple], workers: int) -> list:
