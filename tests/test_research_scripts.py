@@ -10,6 +10,7 @@ import sys
 from pathlib import Path
 from types import ModuleType
 
+import mujoco
 import numpy as np
 import pytest
 import torch
@@ -471,3 +472,24 @@ def test_to_squat_probe_scales_the_joint_ranges_and_clips_the_state_into_them():
     np.testing.assert_allclose(model.jnt_range[knee.id], [lo + margin, hi - margin])
     assert data.qpos[knee.qposadr[0]] == pytest.approx(hi - margin)
     np.testing.assert_array_equal(data.qpos[:7], base)  # the free joint is not a hinge
+
+
+def test_rise_path_probe_tells_hands_and_knees_from_standing():
+    path = _script("probe_rise_path")
+    model = eval_model(None, 0.002, True, "default")
+    data = mujoco.MjData(model)
+    data.qpos[:] = plan_keyframes(model)["hands_knees"]
+    for _ in range(10):  # the keyframe's knees hover a few mm: lowered until they touch
+        mujoco.mj_forward(model, data)
+        if path.sample_of(model, data)[2]:
+            break
+        data.qpos[2] -= 0.002
+    z, up, hands_knees, soles_off, grounded = path.sample_of(model, data)
+    assert hands_knees and grounded and not soles_off  # the toes touch, no sole is flat
+    assert 0.3 < z < 0.7 and -0.9 < up < 0.9  # pelvis pitched forward
+    data.qpos[:] = 0.0
+    data.qpos[2], data.qpos[3] = 1.03, 1.0
+    data.qpos[7:] = DEFAULT_JOINT_POS
+    mujoco.mj_forward(model, data)
+    z, up, hands_knees, soles_off, grounded = path.sample_of(model, data)
+    assert not hands_knees and not grounded and up == pytest.approx(1.0)

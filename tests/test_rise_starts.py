@@ -263,30 +263,6 @@ def test_an_env_resets_from_recorded_states_and_steps_without_nan(sitting_file):
     assert log["rise_rate/sitting"] == 1.0
 
 
-def test_a_pose_share_of_a_recorded_poses_episodes_starts_from_its_own_starts(sitting_file):
-    cfg = default_config()
-    cfg.num_envs, cfg.num_threads, cfg.seed = 64, 1, 3
-    cfg.curriculum.enabled = False
-    cfg.pose_weights = {"sitting": 1.0}
-    cfg.rises = RiseConfig(files=(str(sitting_file),), levels=4, window=10_000, pose_share=0.5)
-    env = RecoveryEnv(cfg)
-    env.rises.level["sitting"] = 1
-    ids = np.arange(env.num_envs)
-    env._reset(ids)
-    own = env.start_level < 0
-    assert 16 < own.sum() < 48 and (env.start_level[~own] == 1).all()
-    moves = env.rises.moves["sitting"]
-    recorded = {tuple(row) for row in moves.qpos[:, 7:]}
-    assert all(tuple(env.qpos[i, 7:]) in recorded for i in np.flatnonzero(~own))
-    assert not any(tuple(env.qpos[i, 7:]) in recorded for i in np.flatnonzero(own))
-    env.stood_up[:] = own  # only the own starts rose: the level's window sees its failures
-    log = env._episode_log(ids, {n: np.zeros(env.num_envs, bool) for n in
-                                 ("torso_contact", "stuck_low", "nan", "timeout")})
-    assert env.rises.state_dict()["outcomes"]["sitting"] == [False] * int((~own).sum())
-    assert log["own_stood_up/sitting"].tolist() == [1.0] * int(own.sum())
-    assert log["rise_rate/sitting"] == 0.0
-
-
 def test_the_rise_levels_are_checkpointed_and_resumed(tmp_path, sitting_file):
     run = tmp_path / "run"
     overrides = {"curriculum.enabled": False, "pose_weights": {"sitting": 1.0},

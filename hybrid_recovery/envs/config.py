@@ -298,10 +298,6 @@ class RiseConfig:
     """Stand-up rate over ``window`` below which the starts move one stretch back."""
     window: int = 128
     """Finished episodes from the current level per decision."""
-    pose_share: float = 0.0
-    """Share of a recorded pose's episodes that start from the pose's own settled starts
-    (as at level K) while its curriculum runs; they do not count toward the level. 0: all
-    start along the recording."""
 
     def __post_init__(self) -> None:
         check_section(self, "rises.")

@@ -117,7 +117,6 @@ RANGES: dict[str, Range] = {
     "rises.advance": (0.0, False, 1.0),
     "rises.retreat": UNIT,
     "rises.window": (1, True, math.inf),
-    "rises.pose_share": UNIT,
     "terrain.weights": NON_NEGATIVE,
     "terrain.max_slope": (0.0, False, 45.0),
     "terrain.max_rough": (0.0, False, 0.2),

@@ -432,12 +432,8 @@ class RecoveryEnv(VecEnv):
             if not len(rows):
                 continue
             if self.rises.active(name):
-                own = rng.random(len(rows)) < self.cfg.rises.pose_share
-                along, rows = rows[~own], rows[own]
-                levels[along], recorded[along] = self.rises.level[name], True
-                qpos[along], qvel[along] = self.rises.draw(name, len(along), rng)
-                pool = self.pool[name][0]
-                qpos[rows] = pool[rng.integers(len(pool), size=len(rows))]
+                levels[rows], recorded[rows] = self.rises.level[name], True
+                qpos[rows], qvel[rows] = self.rises.draw(name, len(rows), rng)
                 continue
             if not self.bridge.active(name):
                 pool = self.pool[name][0]
@@ -525,11 +521,6 @@ class RecoveryEnv(VecEnv):
         for pose in self.rises.poses:
             log[f"rise_level/{pose}"] = float(self.rises.level[pose])
             log[f"rise_rate/{pose}"] = self.rises.rate(pose)
-            own = ids[(self._pose_names[self.start_pose[ids]] == pose)
-                      & (self.start_level[ids] < 0)]
-            if len(own):  # from the pose's own starts (``rises.pose_share``)
-                log[f"own_stood_up/{pose}"] = torch.from_numpy(
-                    self.stood_up[own].astype(np.float32))
         log["episode/final_com_height"] = torch.from_numpy(self._host["height"][ids])
         if self.terrain is not None:
             self.terrain.record(self._window_outcome()[ids])
