@@ -484,12 +484,15 @@ def test_rise_path_probe_tells_hands_and_knees_from_standing():
         if path.sample_of(model, data)[2]:
             break
         data.qpos[2] -= 0.002
-    z, up, hands_knees, soles_off, grounded = path.sample_of(model, data)
-    assert hands_knees and grounded and not soles_off  # the toes touch, no sole is flat
+    z, up, hands_knees, soles_off, grounded, flight = path.sample_of(model, data)
+    assert hands_knees and grounded and not soles_off and not flight  # toes down, no sole flat
     assert 0.3 < z < 0.7 and -0.9 < up < 0.9  # pelvis pitched forward
     data.qpos[:] = 0.0
     data.qpos[2], data.qpos[3] = 1.03, 1.0
     data.qpos[7:] = DEFAULT_JOINT_POS
     mujoco.mj_forward(model, data)
-    z, up, hands_knees, soles_off, grounded = path.sample_of(model, data)
+    z, up, hands_knees, soles_off, grounded, flight = path.sample_of(model, data)
     assert not hands_knees and not grounded and up == pytest.approx(1.0)
+    data.qpos[2] += 0.5  # lifted off the floor: in flight
+    mujoco.mj_forward(model, data)
+    assert path.sample_of(model, data)[3:] == (True, False, True)
