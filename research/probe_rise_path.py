@@ -25,12 +25,10 @@ import numpy as np
 
 from hybrid_recovery.controllers.registry import make
 from hybrid_recovery.evaluation.scenario import Scenario
-from hybrid_recovery.evaluation.trial import run_trial
+from hybrid_recovery.evaluation.trial import RECORD_DT, run_trial
 from hybrid_recovery.getup.contact_map import floor_contacts
 from hybrid_recovery.robot.constants import PELVIS_BODY
 
-SAMPLE_DT = 0.02
-"""The trial's sample period [s] (50 Hz)."""
 _HANDS = {"left_hand", "right_hand"}
 _KNEES = {"left_knee", "right_knee"}
 _FLAT = {f"{side}_{part}" for side in ("left", "right") for part in ("foot", "heel")}
@@ -61,11 +59,11 @@ def path_of(controller: str, pose: str, seed: int, duration: float = 20.0) -> di
     stood = bool(out["success"])
     t_stand = float(out["recovery_time"]) if stood else float("nan")
     on_ground = np.flatnonzero(grounded)
-    left_ground = (on_ground[-1] + 1) * SAMPLE_DT if len(on_ground) else 0.0
+    left_ground = (on_ground[-1] + 1) * RECORD_DT if len(on_ground) else 0.0
     return {"pose": pose, "seed": seed, "stood": stood, "time": t_stand,
-            "hands_knees": float(hands_knees.sum() * SAMPLE_DT),
-            "soles_off_low": float((soles_off & (z < 0.5)).sum() * SAMPLE_DT),
-            "flight": float(flight.sum() * SAMPLE_DT),
+            "hands_knees": float(hands_knees.sum() * RECORD_DT),
+            "soles_off_low": float((soles_off & (z < 0.5)).sum() * RECORD_DT),
+            "flight": float(flight.sum() * RECORD_DT),
             "min_up": float(up.min()),
             "on_feet": t_stand - left_ground if stood else float("nan")}
 
