@@ -183,3 +183,24 @@ def test_sigterm_during_eval_is_handled_as_ctrl_c(tmp_path):
     assert 3 <= trials < 200
     assert err.strip().splitlines()[-1] == (f"interrupted: {trials} of 200 trials are in "
                                             f"{results}; the same command resumes")
+
+
+def _worker_sigterm(queue) -> None:
+    from hybrid_recovery.evaluation.runner import _init_worker
+    _init_worker("zero", None, "default", ignore_sigint=True)
+    queue.put(signal.getsignal(signal.SIGTERM) is signal.SIG_DFL)
+
+
+def test_an_evaluation_worker_ends_on_sigterm_wherever_it_blocks():
+    import multiprocessing as mp
+
+    from hybrid_recovery.cli.errors import sigterm_as_interrupt
+    ctx = mp.get_context("fork")
+    with sigterm_as_interrupt():  # the parent's handler, which a forked worker inherits
+        queue = ctx.Queue()
+        worker = ctx.Process(target=_worker_sigterm, args=(queue,))
+        worker.start()
+        default = queue.get(timeout=120)
+        worker.join(60)
+        assert signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL  # the parent keeps it
+    assert default

@@ -40,8 +40,12 @@ class EvaluationInterrupted(KeyboardInterrupt):
 def _init_worker(controller: str, model_path: str | None, contact: str,
                  ignore_sigint: bool = False, rotor_inertia: bool = False,
                  stop_on_success: bool = False, actuator: str = "ideal") -> None:
-    if ignore_sigint:  # the parent alone handles Ctrl-C (one line, not one per worker)
+    if ignore_sigint:  # a pool worker: the parent alone handles Ctrl-C (one line, not one each)
         signal.signal(signal.SIGINT, signal.SIG_IGN)
+        # and the pool's terminate() ends it wherever it blocks: a SIGTERM handler inherited
+        # from the parent runs Python code, which a worker blocked in a C-level lock never
+        # reaches (an evaluation hung so after its last trial, the parent joining the worker)
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
     _WORKER.update(controller=make(controller), model=model_path, contact=contact,
                    rotor_inertia=rotor_inertia, stop=stop_on_success, actuator=actuator)
 
