@@ -94,7 +94,6 @@ def probe(path: Path, levels: int, cfg: EnvConfig | None = None) -> dict:
                                    np.arange(len(moves.remaining)) + moves.remaining, cfg, dt)
     factor = cfg.curriculum.position_limit_final
     excess = beyond_ranges(model, moves.qpos, factor)
-    names = JOINT_NAMES
     table = {}
     for k in range(levels - 1, -1, -1):
         here = moves.stretch == k
@@ -105,7 +104,7 @@ def probe(path: Path, levels: int, cfg: EnvConfig | None = None) -> dict:
                          if hit.any() else None,
                          "beyond_range_share": round(float(over.any(axis=1).mean()), 3),
                          "largest_excess_rad": round(float(excess[here].max()), 3),
-                         "most_often_beyond": names[int(over.mean(axis=0).argmax())]
+                         "most_often_beyond": JOINT_NAMES[int(over.mean(axis=0).argmax())]
                          if over.any() else None}
     return {"recording": str(path), "pose": pose, "levels": levels,
             "stuck_time": cfg.stuck_time, "stuck_rise": cfg.stuck_rise,

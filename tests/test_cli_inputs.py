@@ -4,6 +4,7 @@ handled as Ctrl-C; ``report`` refuses what is not a results file."""
 
 from __future__ import annotations
 
+import multiprocessing as mp
 import os
 import signal
 import subprocess
@@ -13,7 +14,9 @@ from pathlib import Path
 
 import pytest
 
+from hybrid_recovery.cli.errors import sigterm_as_interrupt
 from hybrid_recovery.cli.main import main
+from hybrid_recovery.evaluation.runner import _init_worker
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -186,15 +189,11 @@ def test_sigterm_during_eval_is_handled_as_ctrl_c(tmp_path):
 
 
 def _worker_sigterm(queue) -> None:
-    from hybrid_recovery.evaluation.runner import _init_worker
     _init_worker("zero", None, "default", ignore_sigint=True)
     queue.put(signal.getsignal(signal.SIGTERM) is signal.SIG_DFL)
 
 
 def test_an_evaluation_worker_ends_on_sigterm_wherever_it_blocks():
-    import multiprocessing as mp
-
-    from hybrid_recovery.cli.errors import sigterm_as_interrupt
     ctx = mp.get_context("fork")
     with sigterm_as_interrupt():  # the parent's handler, which a forked worker inherits
         queue = ctx.Queue()

@@ -458,8 +458,6 @@ def test_recorded_rise_probe_measures_joints_beyond_the_scaled_ranges():
 
 
 def test_to_squat_probe_scales_the_joint_ranges_and_clips_the_state_into_them():
-    import mujoco
-
     module = _script("probe_to_squat")
     model = eval_model(None, 0.002, True, "default")
     data = mujoco.MjData(model)
