@@ -23,6 +23,7 @@ from hybrid_recovery.envs.rewards import (
     feet_load,
     height_gaussian,
     joint_limit,
+    joint_speed,
     momentum_rate_sq,
     orientation_sq,
     rise_velocity,
@@ -35,8 +36,8 @@ from hybrid_recovery.envs.rewards import (
 H_STAR = 0.92
 DT = 0.02
 CFG = RewardConfig()
-ALL_ON = dataclasses.replace(CFG, w_feet=2.0)
-"""Every term of the table on (the defaults leave r_feet off)."""
+ALL_ON = dataclasses.replace(CFG, w_feet=2.0, w_joint_speed=1.0)
+"""Every term of the table on (the defaults leave r_feet and the joint-speed term off)."""
 
 
 def state(n: int = 1, **values) -> RewardState:
@@ -46,7 +47,8 @@ def state(n: int = 1, **values) -> RewardState:
     base = dict(
         height=np.full(n, H_STAR), height_vel=np.zeros(n), com_distance=np.full(n, -0.05),
         cp_distance=np.full(n, -0.05), net_force=np.zeros((n, 3)), net_torque=np.zeros((n, 3)),
-        torque=np.zeros((n, 27)), limit_violation=np.zeros(n), action=np.zeros((n, 27)),
+        torque=np.zeros((n, 27)), limit_violation=np.zeros(n), speed_violation=np.zeros(n),
+        action=np.zeros((n, 27)),
         last_action=np.zeros((n, 27)), gravity_b=gravity, support_contacts=np.zeros(n),
         foot_force=np.full((n, 2), 500.0), foot_up=np.ones((n, 2)),
         weight=np.full(n, 1000.0),
@@ -152,9 +154,10 @@ def test_regularisers():
     torque[0, :2] = (3.0, 4.0)
     action = np.zeros((1, 27))
     action[0, 5] = 0.5
-    s = state(torque=torque, limit_violation=[0.1], action=action)
+    s = state(torque=torque, limit_violation=[0.1], speed_violation=[0.3], action=action)
     assert torque_sq(s, CFG, H_STAR)[0] == pytest.approx(-25.0)
     assert joint_limit(s, CFG, H_STAR)[0] == pytest.approx(-0.1)
+    assert joint_speed(s, CFG, H_STAR)[0] == pytest.approx(-0.3)
     assert action_rate_sq(s, CFG, H_STAR)[0] == pytest.approx(-0.25)
     assert alive(s, CFG, H_STAR)[0] == 1.0
 

@@ -15,7 +15,8 @@ from hybrid_recovery.dynamics import net_centroidal_wrench
 from hybrid_recovery.dynamics.capturability import capture_point
 from hybrid_recovery.dynamics.support import signed_distance_batched, signed_distance_enumerated
 from hybrid_recovery.envs import RecoveryEnv, default_config
-from hybrid_recovery.envs.step_state import PRIVILEGED_DIM
+from hybrid_recovery.envs.step_state import PRIVILEGED_DIM, read_step_state, reward_state
+from hybrid_recovery.robot.constants import VELOCITY_LIMITS
 
 DEVICES = ["cpu"] + (["cuda"] if torch.cuda.is_available() else [])
 F64_TOL = 1e-9
@@ -120,3 +121,20 @@ def test_the_public_functions_still_take_lists_and_numbers():
     np.testing.assert_allclose(xi, [0.4, 0.2])
     np.testing.assert_allclose(capture_point([[0.1, 0.2]], [[0.3, 0.0]], [9.81], g=9.81),
                                [[0.4, 0.2]])
+
+
+def test_the_speed_violation_is_each_joints_excess_over_its_velocity_limit(arrays):
+    """Σ_j max(|q̇_j| / ω_max,j − 1, 0) from hand-set joint speeds: twice the limit counts 1,
+    −1.5 times it 0.5 (either direction), half of it nothing."""
+    a, at, dt, _, _ = arrays
+    s = read_step_state(a["sensordata"], a["xmat"], a["qpos"], a["qvel"], a["actuator_force"],
+                        a["mass"], a["prev_momentum"], a["prev_com_vel"], at, dt)
+    limit = VELOCITY_LIMITS
+    dq = np.zeros_like(s["dq"])
+    dq[0, 3], dq[0, 20] = 2.0 * limit[3], -1.5 * limit[20]
+    dq[1, :] = 0.5 * limit
+    rs = reward_state(s | {"dq": dq}, a["joint_range"], limit, a["action"], a["last_action"],
+                      a["terminated"])
+    expected = np.zeros(len(dq))
+    expected[0] = 1.5
+    np.testing.assert_allclose(rs.speed_violation, expected)

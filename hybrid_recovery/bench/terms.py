@@ -38,7 +38,8 @@ def step_terms(a: Mapping[str, Array], at: StepIndices, dt: float, rewards: Rewa
 
     Args:
         a: sensordata, xmat, qpos, qvel, actuator_force, mass, prev_momentum,
-            prev_com_vel, joint_range, action, last_action, terminated, upright_time.
+            prev_com_vel, joint_range, velocity_limit, action, last_action, terminated,
+            upright_time.
         timed: called with each part's name (:data:`PARTS`) when it is done.
     """
     mark = timed or (lambda part: None)
@@ -46,7 +47,8 @@ def step_terms(a: Mapping[str, Array], at: StepIndices, dt: float, rewards: Rewa
                         a["mass"], a["prev_momentum"], a["prev_com_vel"], at, dt)
     mark("state_and_hulls")
     total, parts = compute_rewards(
-        reward_state(s, a["joint_range"], a["action"], a["last_action"], a["terminated"]),
+        reward_state(s, a["joint_range"], a["velocity_limit"], a["action"], a["last_action"],
+                     a["terminated"]),
         rewards, h_star, dt)
     mark("rewards")
     out = {f"state/{k}": v for k, v in s.items()}
@@ -72,6 +74,7 @@ def env_arrays(env, rng: np.random.Generator) -> dict[str, np.ndarray]:
         prev_momentum=env.prev_momentum + rng.normal(0.0, 1.0, env.prev_momentum.shape),
         prev_com_vel=env.prev_com_vel + rng.normal(0.0, 0.1, env.prev_com_vel.shape),
         joint_range=env.randomizer.jnt_range[:, 1:1 + env.num_actions].copy(),
+        velocity_limit=np.asarray(env.velocity_limit).copy(),
         action=env.action.copy(), last_action=env.last_action.copy(),
         terminated=rng.random(n) < 0.3, upright_time=rng.uniform(0.0, 1.0, n))
 

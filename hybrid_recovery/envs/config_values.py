@@ -69,6 +69,7 @@ RANGES: dict[str, Range] = {
     "rewards.alpha_ang": COEFFICIENT,
     "rewards.w_torque": WEIGHT,
     "rewards.w_joint_limit": WEIGHT,
+    "rewards.w_joint_speed": WEIGHT,
     "rewards.w_action_rate": WEIGHT,
     "rewards.w_orient": WEIGHT,
     "rewards.w_contact": WEIGHT,

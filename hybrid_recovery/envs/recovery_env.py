@@ -152,6 +152,8 @@ class RecoveryEnv(VecEnv):
         self.h_star = cfg.rewards.height_target or float(self._com_height(default_qpos(m)))
         self.action = self._to_sim(np.zeros((n, self.num_actions)))
         self.last_action = self._xp.zeros_like(self.action)
+        self.velocity_limit = self._to_sim(constants.VELOCITY_LIMITS.copy())
+        """ω_max of the joints in action order (27,) [rad/s]."""
         self.episode_length_buf = torch.zeros(n, dtype=torch.long)
         self.prev_momentum = self._to_sim(np.zeros((n, 6)))
         self.prev_com_vel = self._to_sim(np.zeros((n, 3)))
@@ -351,7 +353,8 @@ class RecoveryEnv(VecEnv):
     def _reward_state(self, terminated: np.ndarray) -> RewardState[Any]:
         """The reward terms' inputs; ``terminated`` (N,) bool on the host."""
         return reward_state(self._state, self._sim["jnt_range"][:, 1:1 + self.num_actions],
-                            self.action, self.last_action, self._to_sim(terminated))
+                            self.velocity_limit, self.action, self.last_action,
+                            self._to_sim(terminated))
 
     def _observations(self) -> TensorDict:
         xp, s = self._xp, self._state

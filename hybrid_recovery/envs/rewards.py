@@ -32,6 +32,8 @@ class RewardState(Generic[Array]):
         net_torque: τ_net = ΔL/Δt, (N, 3) [N·m].
         torque: applied joint torques τ, (N, 27) [N·m].
         limit_violation: Σ joint-position excess beyond the soft limits, (N,) [rad].
+        speed_violation: Σ_j max(|q̇_j| / ω_max,j − 1, 0), joint speed beyond the velocity
+            limits as a share of them, (N,) [-].
         action: a_t, (N, 27).
         last_action: a_{t−1}, (N, 27).
         gravity_b: torso projected gravity, (N, 3).
@@ -50,6 +52,7 @@ class RewardState(Generic[Array]):
     net_torque: Array
     torque: Array
     limit_violation: Array
+    speed_violation: Array
     action: Array
     last_action: Array
     gravity_b: Array
@@ -122,6 +125,11 @@ def joint_limit(s: RewardState[Array], c: RewardConfig, h_star: float) -> Array:
     return -s.limit_violation
 
 
+def joint_speed(s: RewardState[Array], c: RewardConfig, h_star: float) -> Array:
+    """−Σ_j max(|q̇_j| / ω_max,j − 1, 0): joint speed beyond the velocity limits [-]."""
+    return -s.speed_violation
+
+
 def action_rate_sq(s: RewardState[Array], c: RewardConfig, h_star: float) -> Array:
     """−‖a_t − a_{t−1}‖²."""
     xp = array_namespace(s.height)
@@ -173,6 +181,7 @@ REWARD_TERMS: tuple[tuple[str, str, Term], ...] = (
     ("mom", "w_mom", momentum_rate_sq),
     ("torque", "w_torque", torque_sq),
     ("joint_limit", "w_joint_limit", joint_limit),
+    ("joint_speed", "w_joint_speed", joint_speed),
     ("action_rate", "w_action_rate", action_rate_sq),
     ("orient", "w_orient", orientation_sq),
     ("contact", "w_contact", support_contact),

@@ -111,13 +111,14 @@ def read_step_state(sensordata: Array, xmat: Array, qpos: Array, qvel: Array,
     )
 
 
-def reward_state(s: Mapping[str, Array], joint_range: Array, action: Array,
-                 last_action: Array, terminated: Array) -> RewardState[Array]:
+def reward_state(s: Mapping[str, Array], joint_range: Array, velocity_limit: Array,
+                 action: Array, last_action: Array, terminated: Array) -> RewardState[Array]:
     """The reward terms' inputs (:class:`~hybrid_recovery.envs.rewards.RewardState`).
 
     Args:
         s: :func:`read_step_state`'s quantities.
         joint_range: this episode's joint ranges (N, 27, 2) [rad].
+        velocity_limit: the joints' velocity limits ω_max (27,) [rad/s].
         action: a_t and last_action: a_{t−1}, (N, 27).
         terminated: early terminations of this step (N,) bool.
     """
@@ -125,10 +126,12 @@ def reward_state(s: Mapping[str, Array], joint_range: Array, action: Array,
     lo, hi = joint_range[..., 0], joint_range[..., 1]
     mid, half = (lo + hi) / 2, (hi - lo) / 2 * SOFT_LIMIT
     excess = xp.sum(xp.maximum(xp.abs(s["q"] - mid) - half, 0.0), axis=1)
+    too_fast = xp.sum(xp.maximum(xp.abs(s["dq"]) / velocity_limit - 1.0, 0.0), axis=1)
     return RewardState(
         height=s["height"], height_vel=s["height_vel"], com_distance=s["d_com"],
         cp_distance=s["d_cp"], net_force=s["net_force"], net_torque=s["net_torque"],
-        torque=s["torque"], limit_violation=excess, action=action, last_action=last_action,
+        torque=s["torque"], limit_violation=excess, speed_violation=too_fast,
+        action=action, last_action=last_action,
         gravity_b=s["gravity_b"], support_contacts=s["support_contacts"],
         foot_force=s["foot_force"], foot_up=s["foot_up"], weight=s["mass"] * GRAVITY,
         terminated=terminated,
