@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import json
 import os
@@ -14,12 +15,14 @@ import numpy as np
 import onnxruntime as ort
 import pytest
 import torch
+from tensordict import TensorDict
 
 from hybrid_recovery.envs import RecoveryEnv
 from hybrid_recovery.envs.rewards import CAPTURE_POINT_TERMS
 from hybrid_recovery.observation import ACTOR_OBS_DIM
 from hybrid_recovery.sim.initial_states import POSES
 from hybrid_recovery.training import TrainConfig, load_checkpoint, train
+from hybrid_recovery.training.checkpoint import grow_critic_inputs
 from hybrid_recovery.training.config import train_config_from_dict
 from hybrid_recovery.training.export import (
     actor_from_checkpoint,
@@ -348,3 +351,30 @@ def test_override_values_are_json_and_a_broken_list_is_refused():
             parse_overrides([bad])
     with pytest.raises(UsageError, match="key=value"):
         parse_overrides(["rewards.w_cp"])
+
+
+def test_a_run_amended_onto_terrain_keeps_its_critic_and_trains_on(tmp_path):
+    """The critic gains the terrain's heights with zero weights: at the resume it values
+    every observation as the saved critic did, whatever the heights, and the widened
+    critic and its optimiser train on."""
+    run = tmp_path / "run"
+    first = train(run, _cfg())
+    saved = load_checkpoint(run / "latest.pt")
+    width = saved["critic_state_dict"]["mlp.0.weight"].shape[1]
+    resumed = train(run, _cfg(iterations=3), resume=True,
+                    amend={"terrain.enabled": True, "terrain.height_grid": 3})
+    trained = load_checkpoint(run / "latest.pt")["critic_state_dict"]["mlp.0.weight"]
+    assert trained.shape[1] == width + 9 and trained[:, width:].abs().sum() > 0.0
+    widened = copy.deepcopy(saved)
+    assert grow_critic_inputs(widened, width + 9, len(list(first.alg.actor.parameters()))) == 9
+    assert grow_critic_inputs(widened, width + 9, 0) == 0
+    critic = copy.deepcopy(resumed.alg.critic)
+    critic.load_state_dict(widened["critic_state_dict"])
+    first.alg.critic.load_state_dict(saved["critic_state_dict"])
+    obs = torch.randn(5, width)
+    heights = torch.rand(5, 9)
+    np.testing.assert_allclose(
+        critic(TensorDict({"critic": torch.cat([obs, heights], 1)}, batch_size=[5])).detach(),
+        first.alg.critic(TensorDict({"critic": obs}, batch_size=[5])).detach(), rtol=1e-6)
+    with pytest.raises(ValueError, match="more than"):
+        grow_critic_inputs(widened, width, 0)

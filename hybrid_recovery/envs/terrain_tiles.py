@@ -148,6 +148,11 @@ class TerrainTiles:
                 out[rows] = ground_height(terrain, xy[rows])
         return out
 
+    @property
+    def num_heights(self) -> int:
+        """G², the critic's terrain inputs per env (:meth:`heights_around`)."""
+        return self.cfg.height_grid ** 2
+
     def heights_around(self, base: np.ndarray, yaw: np.ndarray) -> np.ndarray:
         """The critic's terrain input: base height above the ground at a G × G grid
         around the base in its heading frame, (N, G²) [m].

@@ -14,7 +14,8 @@ from hybrid_recovery.files import atomic_write, atomic_write_text
 from hybrid_recovery.policy.description import check_meta
 
 __all__ = ["LATEST", "RUN_CONFIG", "atomic_save", "atomic_write_text", "check_state_shapes",
-           "load_checkpoint", "load_latest", "numbered_checkpoints", "read_run_config"]
+           "grow_critic_inputs", "load_checkpoint", "load_latest", "numbered_checkpoints",
+           "read_run_config"]
 
 LATEST = "latest.pt"
 """File name of the newest checkpoint in a run directory."""
@@ -64,6 +65,45 @@ def check_state_shapes(saved: Mapping[str, Any], model: Mapping[str, Any], part:
     more = f" ({len(problems)} tensors differ)" if len(problems) > 1 else ""
     raise ValueError(f"checkpoint {source}{of} does not fit this model's {part}: "
                      f"{problems[0]}{more}")
+
+
+def grow_critic_inputs(data: dict, width: int, first_param: int) -> int:
+    """Widens a checkpoint's critic, in place, to ``width`` inputs, appended after its own:
+    their first-layer weights zero (the critic's values are unchanged), their normaliser
+    mean 0 and variance 1, and their Adam moments zero. For a run amended to give the
+    critic more privileged inputs (the terrain's heights, appended last).
+
+    Args:
+        data: a checkpoint (``critic_state_dict``, ``optimizer_state_dict``).
+        width: the critic's new number of inputs.
+        first_param: the index of the critic's first-layer weight in the optimiser's
+            parameters (the actor's parameters come first).
+
+    Returns:
+        The number of inputs added (0 when the critic has ``width`` already).
+
+    Raises:
+        ValueError: the critic has more inputs than ``width``.
+    """
+    critic = data["critic_state_dict"]
+    weight = critic["mlp.0.weight"]
+    added = width - int(weight.shape[1])
+    if added < 0:
+        raise ValueError(f"the checkpoint's critic takes {weight.shape[1]} inputs, more than "
+                         f"the {width} of this run")
+    if added == 0:
+        return 0
+    critic["mlp.0.weight"] = torch.cat([weight, weight.new_zeros(weight.shape[0], added)], 1)
+    for name, fill in (("_mean", 0.0), ("_var", 1.0), ("_std", 1.0)):
+        key = f"obs_normalizer.{name}"
+        if key in critic:
+            critic[key] = torch.cat([critic[key], critic[key].new_full((1, added), fill)], 1)
+    moments = data["optimizer_state_dict"]["state"].get(first_param, {})
+    for key in ("exp_avg", "exp_avg_sq"):
+        if key in moments:
+            moments[key] = torch.cat([moments[key], moments[key].new_zeros(
+                moments[key].shape[0], added)], 1)
+    return added
 
 
 def _shape(value: Any) -> list[int] | None:

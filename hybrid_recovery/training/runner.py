@@ -27,6 +27,7 @@ from hybrid_recovery.training.checkpoint import (
     atomic_save,
     atomic_write_text,
     check_state_shapes,
+    grow_critic_inputs,
     load_checkpoint,
     load_latest,
     numbered_checkpoints,
@@ -148,6 +149,16 @@ class RecoveryRunner(OnPolicyRunner):
         variant = data.get("infos", {}).get("meta", {}).get("variant")
         check_state_shapes(data["actor_state_dict"], self.alg.actor.state_dict(), "actor",
                            path, variant)
+        width = int(self.alg.critic.state_dict()["mlp.0.weight"].shape[1])
+        if (terrain := getattr(self.env, "terrain", None)) is not None:
+            first = len(list(self.alg.actor.parameters()))
+            if added := grow_critic_inputs(data, width, first):
+                if added != terrain.num_heights:
+                    raise ValueError(f"checkpoint {path}: its critic takes {width - added} "
+                                     f"inputs; with the terrain's {terrain.num_heights} "
+                                     f"heights this run's takes {width}")
+                print(f"[hybrid-recovery] the critic gains the terrain's {added} heights "
+                      "(their weights start at zero)", flush=True)
         check_state_shapes(data["critic_state_dict"], self.alg.critic.state_dict(), "critic",
                            path, variant)
         self.alg.load(data, None, True)
@@ -159,8 +170,7 @@ class RecoveryRunner(OnPolicyRunner):
             self.env.bridge.load_state_dict(data["infos"]["bridge"])
         if "rises" in data["infos"]:
             self.env.rises.load_state_dict(data["infos"]["rises"])
-        if (terrain := getattr(self.env, "terrain", None)) is not None \
-                and data["infos"].get("terrain"):
+        if terrain is not None and data["infos"].get("terrain"):
             terrain.load_state_dict(data["infos"]["terrain"])
         if self.teacher and data["infos"].get("teacher"):
             self.teacher.load_state_dict(data["infos"]["teacher"])
