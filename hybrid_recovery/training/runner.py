@@ -149,8 +149,8 @@ class RecoveryRunner(OnPolicyRunner):
         variant = data.get("infos", {}).get("meta", {}).get("variant")
         check_state_shapes(data["actor_state_dict"], self.alg.actor.state_dict(), "actor",
                            path, variant)
-        width = int(self.alg.critic.state_dict()["mlp.0.weight"].shape[1])
         if (terrain := getattr(self.env, "terrain", None)) is not None:
+            width = int(self.alg.critic.state_dict()["mlp.0.weight"].shape[1])
             first = len(list(self.alg.actor.parameters()))
             if added := grow_critic_inputs(data, width, first):
                 if added != terrain.num_heights:
